@@ -1,0 +1,42 @@
+// Shared plumbing of the `tetcollide` subcommands: exit codes, error printing, timing.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/common/result.hpp"
+
+namespace tc::cli {
+
+/// Process exit codes (public interface: scripts test them).
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2, kExitBadInput = 3 };
+
+/// Where a subcommand's callback leaves its exit code.
+struct Context {
+  int exit_code = kExitOk;
+};
+
+/// Prints "tetcollide: error: <message>" to stderr and returns kExitBadInput.
+int report_error(const Error& error);
+/// Prints "tetcollide: error: <message>" to stderr and returns `code`.
+int report_error(const std::string& message, int code);
+
+/// Median of a non-empty list of values (the list is reordered).
+double median(std::vector<double> values);
+
+/// Milliseconds elapsed since `start`.
+inline double elapsed_ms(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+/// Prints a JSON object on stdout (2-space indent, newline).
+void print_json(const nlohmann::json& value);
+
+// Subcommand registration; each is defined in cmd_<name>.cpp.
+void add_mesh_command(CLI::App& app, Context& ctx);
+
+}  // namespace tc::cli

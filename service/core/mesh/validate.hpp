@@ -1,0 +1,66 @@
+// Mesh validation: what is wrong, how often, and where first.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/common/result.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
+namespace tc {
+
+struct ValidationOptions {
+  /// |quality| below this is a zero-volume (degenerate) tet. Quality is the scale-free
+  /// 6*sqrt(2)*V / l_rms^3 of tet_quality(): 1 for a regular tet, so the tolerance is
+  /// relative to the tet's own size and holds at any scale or offset.
+  double degenerate_quality = 1e-6;
+  /// Quality in [degenerate_quality, sliver_quality) is a sliver: valid, but flagged.
+  double sliver_quality = 1e-2;
+  /// How many offending indices each list keeps.
+  std::size_t max_listed = 8;
+};
+
+/// One class of defect: how many, and the first few indices (tets or nodes).
+struct DefectList {
+  std::size_t count = 0;
+  std::vector<Index> first;
+  void add(Index i, std::size_t max_listed) {
+    if (first.size() < max_listed) first.push_back(i);
+    ++count;
+  }
+};
+
+struct ValidationReport {
+  DefectList index_out_of_range;  ///< tets with a node index outside [0, n)
+  DefectList repeated_node;       ///< tets using one node twice
+  DefectList nonfinite_node;      ///< nodes with a NaN or infinite coordinate
+  DefectList degenerate;          ///< tets with |quality| < degenerate_quality
+  DefectList inverted;            ///< tets with quality <= -degenerate_quality
+  DefectList sliver;              ///< tets with quality in [degenerate, sliver)
+  double min_quality = 1.0;       ///< over the tets with valid indices and coordinates
+
+  /// True when the mesh cannot be used at all (bad indices, repeated nodes, NaN).
+  [[nodiscard]] bool structurally_invalid() const {
+    return index_out_of_range.count + repeated_node.count + nonfinite_node.count > 0;
+  }
+  /// True when nothing but slivers was found.
+  [[nodiscard]] bool clean() const {
+    return !structurally_invalid() && degenerate.count == 0 && inverted.count == 0;
+  }
+  /// One line per defect class found, e.g. "2 inverted tets (first: 5, 17)".
+  [[nodiscard]] std::string summary() const;
+};
+
+/// Checks indices, coordinates and tet shapes. Never throws, never flips a tet.
+ValidationReport validate_mesh(const TetMesh& mesh, const ValidationOptions& options = {});
+
+/// Checks only what the positions decide (finite coordinates, degenerate and inverted
+/// tets) for a mesh whose indices are known good: the per-frame check.
+ValidationReport validate_positions(const Positions& positions, const std::vector<Tet>& tets,
+                                    const ValidationOptions& options = {});
+
+/// Error (kInvalidMesh) naming the first defect when the report is not clean, with
+/// `what` (a file or object name) as the message prefix; ok otherwise. Slivers pass.
+Status require_valid(const ValidationReport& report, const std::string& what);
+
+}  // namespace tc
