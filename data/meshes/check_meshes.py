@@ -3,7 +3,7 @@
 
 Standard library only. For every 3D mesh (linear tets, Gmsh element type 4) it checks:
   * every tet positively oriented: det(x1-x0, x2-x0, x3-x0) > 0;
-  * no orphan nodes (nodes used by no tet);
+  * no orphan nodes (nodes used by no tet), unless listed in EXPECTED_ORPHANS;
   * one connected component (tets connected through shared faces);
   * a closed 2-manifold boundary (every interior face in exactly two tets, every boundary
     edge in exactly two boundary faces), outward oriented (sum of the boundary faces'
@@ -40,7 +40,14 @@ EXPECTED = {
     "large_box": 2,
     "disc2d": 1,
     "rect2d": 1,
+    # tests/data/meshes/foreign/
+    "cylinder_hxt": 2,
+    "lblock.1": 2,
+    "tube.1": 0,
 }
+
+# Nodes used by no tet that a file is known to carry on purpose (default 0).
+EXPECTED_ORPHANS = {"cylinder_hxt": 2}  # Gmsh circle centres saved as point elements
 
 # Expected number of distinct node z values (tet layers + 1) for extruded meshes.
 EXPECTED_Z_LEVELS = {"slab": 3}
@@ -191,7 +198,8 @@ def bbox(points):
     return lo, hi
 
 
-def check_3d(name, nodes, tets, surface_tris, expected_chi, expected_z_levels):
+def check_3d(name, nodes, tets, surface_tris, expected_chi, expected_z_levels,
+             expected_orphans):
     failures = []
     pos = nodes
     used = set()
@@ -201,8 +209,8 @@ def check_3d(name, nodes, tets, surface_tris, expected_chi, expected_z_levels):
                 raise MeshError(f"{name}: tet references unknown node {v}")
             used.add(v)
     orphans = len(pos) - len(used)
-    if orphans:
-        failures.append(f"{orphans} orphan nodes")
+    if orphans != expected_orphans:
+        failures.append(f"{orphans} orphan nodes, expected {expected_orphans}")
 
     # Orientation, volume, quality.
     inverted = 0
@@ -414,7 +422,7 @@ def check_file(path, expected_overrides):
         nodes, elements = read_msh41(path)
     if elements.get(4):
         return check_3d(base, nodes, elements[4], elements.get(2), expected,
-                        EXPECTED_Z_LEVELS.get(stem))
+                        EXPECTED_Z_LEVELS.get(stem), EXPECTED_ORPHANS.get(stem, 0))
     if elements.get(2):
         return check_2d(base, nodes, elements[2], expected)
     raise MeshError(f"{path}: no tetrahedra (type 4) or triangles (type 2)")
@@ -463,7 +471,7 @@ def main(argv):
     if markdown:
         print("| mesh | dim | nodes | elements | boundary faces (2D: edges) | boundary nodes "
               "| Euler char. | components | orphans | inverted | all-boundary elements "
-              "| min quality | mean quality | volume (2D: area) | mean edge | bounding box |"
+              "| min quality | mean quality | volume (2D: area) | edge length min / mean / max | bounding box |"
               " status |")
         print("|" + "---|" * 17)
         for name, r in results:
@@ -471,7 +479,8 @@ def main(argv):
                 f"| {name} | {r['dim']} | {r['nodes']} | {r['elements']} | {r['boundary_faces']}"
                 f" | {r['boundary_nodes']} | {r['chi']} | {r['components']} | {r['orphans']}"
                 f" | {r['inverted']} | {r['all_boundary']} | {r['min_q']:.3f}"
-                f" | {r['mean_q']:.3f} | {r['volume']:.5g} | {r['mean_edge']:.4g}"
+                f" | {r['mean_q']:.3f} | {r['volume']:.5g}"
+                f" | {r['min_edge']:.4g} / {r['mean_edge']:.4g} / {r['max_edge']:.4g}"
                 f" | {fmt_box(r['lo'], r['hi'])} | {'ok' if not r['failures'] else 'FAIL'} |"
             )
     else:
