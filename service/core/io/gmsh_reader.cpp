@@ -80,6 +80,10 @@ class GmshParser {
   Error fail_at(std::size_t offset, ErrorCode code, const std::string& message) const {
     return binary_error(code, name_, offset, message);
   }
+  // Errors located at an earlier line of a text file.
+  Error fail_at_line(std::size_t line, ErrorCode code, const std::string& message) const {
+    return text_error(code, name_, line, message);
+  }
   Error end_of_file(const std::string& expected) const {
     if (binary_)
       return fail_at(scan_.data().size(), ErrorCode::kParse,
@@ -256,7 +260,8 @@ Status GmshParser::data_line(std::string_view& line, const std::string& what) {
 }
 
 Status GmshParser::check_fits(std::uint64_t count, std::uint64_t min_bytes, std::string_view what) {
-  if (count > scan_.remaining() / min_bytes)
+  // +1: the last line of a file may lack its '\n'.
+  if (count > (scan_.remaining() + 1) / min_bytes)
     return fail(ErrorCode::kParse, std::to_string(count) + " " + std::string(what) +
                                        " announced, more than the remaining " +
                                        std::to_string(scan_.remaining()) + " bytes can hold");
@@ -387,6 +392,7 @@ Status GmshParser::parse_nodes_v4_text() {
   if (Status st = read_counts("'numEntityBlocks numNodes minNodeTag maxNodeTag'", 4, h); !st)
     return st;
   const std::int64_t blocks = h[0], num_nodes = h[1], min_tag = h[2], max_tag = h[3];
+  const std::size_t header_line = scan_.line();
   // Shortest block header "0 1 0 0\n"; shortest node: "1\n" + "0 0 0\n".
   if (Status st = check_fits(static_cast<std::uint64_t>(blocks), 8, "node blocks"); !st) return st;
   if (Status st = check_fits(static_cast<std::uint64_t>(num_nodes), 8, "nodes"); !st) return st;
@@ -447,8 +453,9 @@ Status GmshParser::parse_nodes_v4_text() {
     }
   }
   if (total != num_nodes)
-    return fail(ErrorCode::kParse, "$Nodes header announces " + std::to_string(num_nodes) +
-                                       " nodes, its blocks hold " + std::to_string(total));
+    return fail_at_line(header_line, ErrorCode::kParse,
+                        "$Nodes header announces " + std::to_string(num_nodes) +
+                            " nodes, its blocks hold " + std::to_string(total));
   return expect_line("$EndNodes");
 }
 
@@ -458,6 +465,7 @@ Status GmshParser::parse_elements_v4_text() {
       !st)
     return st;
   const std::int64_t blocks = h[0], num_elements = h[1];
+  const std::size_t header_line = scan_.line();
   // Shortest block header "0 1 15 0\n"; shortest element: "1 1\n".
   if (Status st = check_fits(static_cast<std::uint64_t>(blocks), 9, "element blocks"); !st)
     return st;
@@ -523,8 +531,9 @@ Status GmshParser::parse_elements_v4_text() {
     }
   }
   if (total != num_elements)
-    return fail(ErrorCode::kParse, "$Elements header announces " + std::to_string(num_elements) +
-                                       " elements, its blocks hold " + std::to_string(total));
+    return fail_at_line(header_line, ErrorCode::kParse,
+                        "$Elements header announces " + std::to_string(num_elements) +
+                            " elements, its blocks hold " + std::to_string(total));
   return expect_line("$EndElements");
 }
 

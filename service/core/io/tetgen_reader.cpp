@@ -89,8 +89,8 @@ Status parse_node_file(std::string_view text, const std::string& file, TetMesh& 
                 "expected 0 or 1 boundary markers per point, got " + std::to_string(nmark));
   if (h[4] != 0)
     return fail(ErrorCode::kUnsupported, "points with uv parameters are not supported");
-  // Shortest point line: "0 0 0 0\n".
-  if (n > kMaxCount || static_cast<std::uint64_t>(n) > scan.remaining() / 8)
+  // Shortest point line: "0 0 0 0\n" (+1: the last line may lack its '\n').
+  if (n > kMaxCount || static_cast<std::uint64_t>(n) > (scan.remaining() + 1) / 8)
     return fail(ErrorCode::kParse, std::to_string(n) +
                                        " points announced, more than the remaining " +
                                        std::to_string(scan.remaining()) + " bytes can hold");
@@ -172,8 +172,8 @@ Status parse_ele_file(std::string_view text, const std::string& file, const Node
                 "run tetgen without -o2)");
   if (corners != 4)
     return fail(ErrorCode::kParse, "expected 4 nodes per tet, got " + std::to_string(corners));
-  // Shortest tet line: "0 0 0 0 0\n".
-  if (m > kMaxCount || static_cast<std::uint64_t>(m) > scan.remaining() / 10)
+  // Shortest tet line: "0 0 0 0 0\n" (+1: the last line may lack its '\n').
+  if (m > kMaxCount || static_cast<std::uint64_t>(m) > (scan.remaining() + 1) / 10)
     return fail(ErrorCode::kParse, std::to_string(m) + " tets announced, more than the remaining " +
                                        std::to_string(scan.remaining()) + " bytes can hold");
   const std::int64_t n = mesh.num_nodes();

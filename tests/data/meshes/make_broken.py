@@ -61,6 +61,8 @@ def main():
     write("broken_tet_3_nodes.msh", replace_once(TWO_TETS_V22, "5 2 4 3\n", "5 2 4\n"))
     # Node tag 2 appears twice.
     write("broken_duplicate_tag.msh", replace_once(TWO_TETS_V22, "3 0 1 0\n", "2 0 1 0\n"))
+    # A tet that uses node 4 twice: read fine, rejected by validation (mesh info: exit 3).
+    write("broken_repeated_node.msh", replace_once(TWO_TETS_V22, "5 2 4 3\n", "5 2 4 4\n"))
     # MSH 4.0 (not supported).
     write("broken_version.msh", replace_once(TWO_TETS_V22, "2.2 0 8", "4 0 8"))
     # 4.1 ASCII whose $Elements block holds fewer lines than it announces.
