@@ -429,7 +429,9 @@ TEST(GmshBuffer, BadNumbers) {
   EXPECT_EQ(gmsh_error(std::string(kV22Head) + nodes + "1 0 0x1 0\n").message,
             "mem.msh:6: expected a coordinate of node tag 1, got '0x1'");
   EXPECT_EQ(gmsh_error(std::string(kV22Head) + nodes + "1 0 1e999 0\n").message,
-            "mem.msh:6: expected a coordinate of node tag 1, got '1e999'");
+            "mem.msh:6: node tag 1 has a non-finite coordinate");
+  EXPECT_EQ(gmsh_error(std::string(kV22Head) + nodes + "1 0 1e-400 0\n$EndNodes\n").message,
+            "mem.msh:8: unexpected end of file, expected an $Elements section");
   EXPECT_EQ(gmsh_error(std::string(kV22Head) + nodes + "1 0 inf 0\n").code,
             ErrorCode::kInvalidMesh);
   EXPECT_EQ(gmsh_error(std::string(kV22Head) + nodes + "1 0 0\n$EndNodes\n").message,

@@ -106,7 +106,9 @@ class GmshParser {
   /// Reads `n` integers (n <= 8) from one line that must hold exactly them.
   Status read_counts(std::string_view what, std::size_t n, std::int64_t* values);
   /// A data line inside a section; `what` names the expected record.
-  Status data_line(std::string_view& line, const std::string& what);
+  /// `what()` builds the description only when there is an error to report.
+  template <typename What>
+  Status data_line(std::string_view& line, const What& what);
 
   Status add_node(std::int64_t tag, double x, double y, double z);
   Status check_node_total(std::uint64_t more);
@@ -250,11 +252,12 @@ Status GmshParser::read_counts(std::string_view what, std::size_t n, std::int64_
   return {};
 }
 
-Status GmshParser::data_line(std::string_view& line, const std::string& what) {
-  if (!scan_.next_nonblank(line)) return end_of_file(what);
+template <typename What>
+Status GmshParser::data_line(std::string_view& line, const What& what) {
+  if (!scan_.next_nonblank(line)) return end_of_file(what());
   const std::string_view t = trim(line);
   if (t.front() == '$')
-    return fail(ErrorCode::kParse, "expected " + what + ", got " + quote(t) +
+    return fail(ErrorCode::kParse, "expected " + what() + ", got " + quote(t) +
                                        " (the section holds fewer records than announced)");
   return {};
 }
@@ -300,7 +303,7 @@ Status GmshParser::parse_nodes_v2() {
   out_.xyz.reserve(out_.xyz.size() + 3 * static_cast<std::size_t>(n));
   std::string_view line;
   for (std::int64_t i = 0; i < n; ++i) {
-    const std::string what = "node " + std::to_string(i + 1) + " of " + std::to_string(n);
+    const auto what = [&] { return "node " + std::to_string(i + 1) + " of " + std::to_string(n); };
     if (Status st = data_line(line, what); !st) return st;
     Tokens tok(line);
     std::string_view t[4];
@@ -308,7 +311,7 @@ Status GmshParser::parse_nodes_v2() {
     while (count < 4 && tok.next(t[count])) ++count;
     if (count < 4 || !tok.at_end())
       return fail(ErrorCode::kParse,
-                  "expected 'tag x y z' for " + what + ", got " + quote(trim(line)));
+                  "expected 'tag x y z' for " + what() + ", got " + quote(trim(line)));
     std::int64_t tag = 0;
     double x[3];
     if (!parse_int(t[0], tag) || tag < 0)
@@ -331,7 +334,9 @@ Status GmshParser::parse_elements_v2() {
   const auto k = static_cast<std::size_t>(wanted_nodes_);
   std::string_view line;
   for (std::int64_t i = 0; i < m; ++i) {
-    const std::string what = "element " + std::to_string(i + 1) + " of " + std::to_string(m);
+    const auto what = [&] {
+      return "element " + std::to_string(i + 1) + " of " + std::to_string(m);
+    };
     if (Status st = data_line(line, what); !st) return st;
     Tokens tok(line);
     std::string_view t_num, t_type, t_ntags;
@@ -339,7 +344,7 @@ Status GmshParser::parse_elements_v2() {
     if (!tok.next(t_num) || !tok.next(t_type) || !tok.next(t_ntags) || !parse_int(t_num, num) ||
         !parse_int(t_type, type) || !parse_int(t_ntags, ntags) || ntags < 0)
       return fail(ErrorCode::kParse, "expected 'number type number-of-tags tags... nodes...' for " +
-                                         what + ", got " + quote(trim(line)));
+                                         what() + ", got " + quote(trim(line)));
     std::string_view t;
     for (std::int64_t j = 0; j < ntags; ++j)
       if (!tok.next(t))
@@ -417,12 +422,13 @@ Status GmshParser::parse_nodes_v4_text() {
     const std::size_t ncoords = 3 + static_cast<std::size_t>(parametric != 0 ? dim : 0);
     block_tags.clear();
     for (std::int64_t i = 0; i < count; ++i) {
-      const std::string what =
-          "node tag " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
+      const auto what = [&] {
+        return "node tag " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
+      };
       if (Status st = data_line(line, what); !st) return st;
       std::int64_t tag = 0;
       if (!parse_int(trim(line), tag) || tag < 0)
-        return fail(ErrorCode::kParse, "expected " + what + ", got " + quote(trim(line)));
+        return fail(ErrorCode::kParse, "expected " + what() + ", got " + quote(trim(line)));
       if (num_nodes > 0 && (tag < min_tag || tag > max_tag))
         return fail(ErrorCode::kParse, "node tag " + std::to_string(tag) + " outside the range [" +
                                            std::to_string(min_tag) + ", " +
@@ -432,7 +438,7 @@ Status GmshParser::parse_nodes_v4_text() {
     }
     for (std::int64_t i = 0; i < count; ++i) {
       const std::int64_t tag = block_tags[static_cast<std::size_t>(i)];
-      const std::string what = "coordinates of node tag " + std::to_string(tag);
+      const auto what = [&] { return "coordinates of node tag " + std::to_string(tag); };
       if (Status st = data_line(line, what); !st) return st;
       Tokens tok(line);
       std::string_view t;
@@ -487,8 +493,9 @@ Status GmshParser::parse_elements_v4_text() {
     const bool wanted = type == wanted_type_;
     if (wanted) out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
     for (std::int64_t i = 0; i < count; ++i) {
-      const std::string what =
-          "element " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
+      const auto what = [&] {
+        return "element " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
+      };
       if (Status st = data_line(line, what); !st) return st;
       Tokens tok(line);
       std::string_view t;
@@ -724,16 +731,18 @@ Status GmshParser::parse_entities_binary() {
     if (counts[kind] > c.remaining() / min_bytes)
       return truncated(std::to_string(counts[kind]) + " " + kKinds[kind] + " entities");
     for (std::uint64_t e = 0; e < counts[kind]; ++e) {
-      const std::string what = std::string(kKinds[kind]) + " entity " + std::to_string(e + 1);
-      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(what);
+      const auto what = [&] {
+        return std::string(kKinds[kind]) + " entity " + std::to_string(e + 1);
+      };
+      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(what());
       c.skip(kind == 0 ? 4 + 24 : 4 + 48);
       const auto physicals = c.take<std::uint64_t>();
-      if (physicals > c.remaining() / 4) return truncated("physical tags of " + what);
+      if (physicals > c.remaining() / 4) return truncated("physical tags of " + what());
       c.skip(4 * physicals);
       if (kind > 0) {
-        if (!c.has(8)) return truncated("bounding entity count of " + what);
+        if (!c.has(8)) return truncated("bounding entity count of " + what());
         const auto bounding = c.take<std::uint64_t>();
-        if (bounding > c.remaining() / 4) return truncated("bounding entities of " + what);
+        if (bounding > c.remaining() / 4) return truncated("bounding entities of " + what());
         c.skip(4 * bounding);
       }
     }

@@ -1,6 +1,8 @@
 #include "core/io/scan.hpp"
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <system_error>
 
@@ -37,6 +39,23 @@ Status write_whole_file(const std::filesystem::path& path, std::string_view data
   out.flush();
   if (!out) return Error{ErrorCode::kIo, path.string() + ": write error"};
   return {};
+}
+
+bool parse_double(std::string_view token, double& out) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  const char* end = token.data() + token.size();
+  const auto [ptr, ec] = std::from_chars(token.data(), end, out, std::chars_format::general);
+  if (ec == std::errc() && ptr == end) return true;
+  if (ec != std::errc::result_out_of_range || ptr != end) return false;
+  // Well-formed but out of range (1e999, 1e-400): strtod gives inf or 0 as IEEE does.
+  char buffer[128];
+  if (token.size() >= sizeof(buffer)) return false;
+  std::memcpy(buffer, token.data(), token.size());
+  buffer[token.size()] = '\0';
+  char* stop = nullptr;
+  out = std::strtod(buffer, &stop);
+  return stop == buffer + token.size();
 }
 
 std::string quote(std::string_view token) {

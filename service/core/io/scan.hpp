@@ -50,16 +50,10 @@ inline bool parse_int(std::string_view token, std::int64_t& out) {
   return ec == std::errc() && ptr == end;
 }
 
-/// Parses the whole token as a floating-point number ("nan" and "inf" parse; the
-/// caller checks finiteness so it can report them precisely).
-inline bool parse_double(std::string_view token, double& out) {
-  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-  if (token.empty()) return false;
-  const char* end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, out, std::chars_format::general);
-  if (ec == std::errc::result_out_of_range) return false;
-  return ec == std::errc() && ptr == end;
-}
+/// Parses the whole token as a floating-point number ("nan" and "inf" parse, and so
+/// does a value beyond the double range, as inf; the caller checks finiteness so it can
+/// report them precisely). A value below the smallest subnormal reads as 0.
+bool parse_double(std::string_view token, double& out);
 
 /// Whitespace-separated tokens of one line.
 class Tokens {

@@ -98,16 +98,16 @@ Status parse_node_file(std::string_view text, const std::string& file, TetMesh& 
   mesh.node_ids.resize(static_cast<std::size_t>(n));
   mesh.positions.resize(3, static_cast<Eigen::Index>(n));
   for (std::int64_t i = 0; i < n; ++i) {
-    const std::string what = "point " + std::to_string(i + 1) + " of " + std::to_string(n);
+    const auto what = [&] { return "point " + std::to_string(i + 1) + " of " + std::to_string(n); };
     if (!next_record(scan, line))
       return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                        "unexpected end of file, expected " + what);
+                        "unexpected end of file, expected " + what());
     Tokens tok(line);
     std::string_view t;
     std::int64_t index = 0;
     if (!tok.next(t) || !parse_int(t, index))
       return fail(ErrorCode::kParse,
-                  "expected the index of " + what + ", got " + quote(trim(line)));
+                  "expected the index of " + what() + ", got " + quote(trim(line)));
     if (i == 0) {
       if (index != 0 && index != 1)
         return fail(ErrorCode::kParse,
@@ -180,16 +180,16 @@ Status parse_ele_file(std::string_view text, const std::string& file, const Node
   const std::int64_t max_tokens = 5 + nattr;
   mesh.tets.resize(static_cast<std::size_t>(m));
   for (std::int64_t i = 0; i < m; ++i) {
-    const std::string what = "tet " + std::to_string(i + 1) + " of " + std::to_string(m);
+    const auto what = [&] { return "tet " + std::to_string(i + 1) + " of " + std::to_string(m); };
     if (!next_record(scan, line))
       return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                        "unexpected end of file, expected " + what);
+                        "unexpected end of file, expected " + what());
     Tokens tok(line);
     std::string_view t;
     std::int64_t index = 0;
     if (!tok.next(t) || !parse_int(t, index))
       return fail(ErrorCode::kParse,
-                  "expected the index of " + what + ", got " + quote(trim(line)));
+                  "expected the index of " + what() + ", got " + quote(trim(line)));
     Tet& tet = mesh.tets[static_cast<std::size_t>(i)];
     std::int64_t got = 1;
     while (tok.next(t)) {
