@@ -251,8 +251,13 @@ TEST(ReadMesh, MissingFileIsAnIoError) {
     EXPECT_EQ(mesh.error().code, ErrorCode::kIo) << name;
     EXPECT_THAT(mesh.error().message, HasSubstr("cannot open")) << name;
   }
-  auto dir = read_mesh(test::data_path("meshes.msh"));
-  ASSERT_FALSE(dir.has_value());
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "tc_test_mesh_io_dir.msh";
+  std::filesystem::create_directories(dir);
+  auto from_dir = read_mesh(dir);
+  std::filesystem::remove(dir);
+  ASSERT_FALSE(from_dir.has_value());
+  EXPECT_EQ(from_dir.error().message, dir.string() + ": is a directory, expected a mesh file");
 }
 
 TEST(ReadMesh, UppercaseExtension) {
