@@ -17,7 +17,8 @@ TetFrame make_tet_frame(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1,
   const double l2 = (g.col(0).squaredNorm() + g.col(1).squaredNorm() + g.col(2).squaredNorm() +
                      (x0 - x1).squaredNorm() + (x0 - x2).squaredNorm() + (x1 - x2).squaredNorm()) /
                     6.0;
-  frame.volume6 = g.determinant();
+  // det [x0 - x3, x1 - x3, x2 - x3] = -det [x1 - x0, x2 - x0, x3 - x0] = -6 V.
+  frame.volume6 = -g.determinant();
   if (!(l2 > 0.0) || !std::isfinite(frame.volume6)) return frame;
   frame.quality = frame.volume6 / (l2 * std::sqrt(l2));
   if (!(std::abs(frame.quality) >= kMinFrameQuality)) return frame;

@@ -20,7 +20,7 @@ inline constexpr double kMinFrameQuality = 1e-10;
 struct TetFrame {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();   ///< x3, metres
   Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();  ///< G^-1, 1/metres; zero when flat
-  double volume6 = 0.0;  ///< det G = 6 x signed volume, m^3 (< 0: inverted tet)
+  double volume6 = 0.0;  ///< -det G = 6 x signed_volume(x0..x3), m^3 (< 0: inverted)
   double quality = 0.0;  ///< det G / l_rms^3, scale-free (0.707 for the regular tet)
   bool regular = false;  ///< |quality| >= kMinFrameQuality and everything finite
 };
