@@ -127,6 +127,11 @@ Direction fallback_direction(const ResponseObject& y, Index t, const TetData& td
     const Tet& tet = y.tets[static_cast<std::size_t>(t)];
     std::array<Vec3, 3> corners;
     Vec3 normal;
+    // Near-ties go to the first candidate, so rounding (scale, offset) cannot flip the
+    // choice between faces that are equally near.
+    double size = 0.0;
+    for (const auto& e : kTetEdges) size = std::max(size, (td.x[e[0]] - td.x[e[1]]).norm());
+    const double tie = 1e-9 * size;
     // 1. The tet's own boundary faces: the nearest face plane.
     double best = std::numeric_limits<double>::infinity();
     const double own_orientation = orientation_of(td.frame.volume6);
@@ -134,7 +139,7 @@ Direction fallback_direction(const ResponseObject& y, Index t, const TetData& td
       if (topo.tet_neighbors[static_cast<std::size_t>(t)][j] != -1) continue;
       if (!face_normal(*y.positions, tet, j, own_orientation, normal, corners)) continue;
       const double inward = (corners[0] - x).dot(normal);
-      if (inward < best) {
+      if (inward < best - tie) {
         best = inward;
         dir.n = normal;
         dir.plane_point = corners[0];
@@ -157,9 +162,10 @@ Direction fallback_direction(const ResponseObject& y, Index t, const TetData& td
       for (int j = 0; j < 4; ++j) {
         if (topo.tet_neighbors[static_cast<std::size_t>(s)][j] != -1) continue;
         if (!face_normal(*y.positions, other, j, orientation, normal, corners)) continue;
-        const double dist2 = point_triangle_distance2(x, corners[0], corners[1], corners[2]);
-        if (dist2 < best) {
-          best = dist2;
+        const double dist =
+            std::sqrt(point_triangle_distance2(x, corners[0], corners[1], corners[2]));
+        if (dist < best - tie) {
+          best = dist;
           dir.n = normal;
           dir.plane_point = corners[0];
           dir.has_plane = true;
