@@ -11,7 +11,7 @@
 #include <string>
 
 #include "core/response/tet_frame.hpp"
-#include "response_test_util.hpp"
+#include "response_fixtures.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {

@@ -13,7 +13,7 @@
 #include <cstring>
 #include <random>
 
-#include "response_test_util.hpp"
+#include "response_fixtures.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -265,14 +265,14 @@ TEST(AutoRule, CoarseBoxOnFineBoxUsesSegmentsFineBoxUsesPoints) {
   const PairContacts cc = test::brute_force_contacts(coarse.a, coarse.b);
   const ContactDensity dc =
       measure_contact_density(coarse.a.view(), cc.marked_a, coarse.b.view(), cc.marked_b);
-  EXPECT_GT(dc.mean_edge, o.auto_threshold * dc.contact_extent);
+  EXPECT_GT(dc.rms_edge, o.auto_threshold * dc.contact_extent);
   EXPECT_EQ(respond(coarse.a, coarse.b, cc, o).used_a_in_b, ResponseKind::kSegment);
 
   const BoxPair fine = box_pair(0.05, 0.21, 7);
   const PairContacts cf = test::brute_force_contacts(fine.a, fine.b);
   const ContactDensity df =
       measure_contact_density(fine.a.view(), cf.marked_a, fine.b.view(), cf.marked_b);
-  EXPECT_LT(df.mean_edge, o.auto_threshold * df.contact_extent);
+  EXPECT_LT(df.rms_edge, o.auto_threshold * df.contact_extent);
   EXPECT_EQ(respond(fine.a, fine.b, cf, o).used_a_in_b, ResponseKind::kPoint);
   // The measured extent is the contact patch, not the objects: about the diagonal of
   // A's footprint.
@@ -299,6 +299,26 @@ TEST(DeepPenetration, ABoxWhollyInsideIsPushedTowardTheNearestFace) {
     EXPECT_GT(r.stats.max_depth, 0.4);
     expect_pair_balanced(r);
   }
+}
+
+TEST(DeepPenetration, EqualDepthsFarFromTheBoundaryFallBackToThePairDirection) {
+  // A plateau of equal depths (as an approximate depth map can give deep inside): no
+  // gradient, no boundary face within a ring of tets. The push goes from B's contact
+  // centre towards A's.
+  TestObject b(test::structured_box(7, 7, 7, {-1, -1, -1}, {1, 1, 1}));
+  std::fill(b.depth.begin(), b.depth.end(), 1.0);
+  TestObject a(test::structured_box(1, 1, 1, {0.02, -0.05, -0.05}, {0.12, 0.05, 0.05}));
+  const PairContacts c = test::brute_force_contacts(a, b);
+  ASSERT_EQ(c.nodes_a_in_b.size(), 8u);
+  ASSERT_TRUE(c.nodes_b_in_a.empty());
+  ResponseOptions o;
+  o.kind = ResponseKind::kPoint;
+  const PairResponse r = respond(a, b, c, o);
+  EXPECT_EQ(r.stats.fallback_pair, 8u);
+  EXPECT_EQ(r.stats.fallback_axis, 0u);
+  const Vec3 f = total_force(r.a);
+  EXPECT_GT(f.x(), 0.7 * f.norm());
+  expect_pair_balanced(r);
 }
 
 // ---- Determinism ---------------------------------------------------------------------

@@ -8,7 +8,7 @@
 #include <Eigen/LU>
 #include <random>
 
-#include "response_test_util.hpp"
+#include "response_fixtures.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {

@@ -58,7 +58,7 @@ struct ResponseOptions {
   /// The paper's behaviour: push the intruding node(s) only, no reaction on the
   /// penetrated object (net force no longer zero).
   bool push_point_only = false;
-  /// kAuto picks the segment response for the features of X entering Y when the mean
+  /// kAuto picks the segment response for the features of X entering Y when the RMS
   /// edge length of X's contact tets exceeds this fraction of the contact extent (the
   /// diagonal of the overlap of the two objects' contact-tet boxes). Dimensionless.
   double auto_threshold = 0.25;

@@ -64,14 +64,17 @@ Status validate_marked(std::span<const Index> marked, std::size_t tets, const ch
   return {};
 }
 
+std::string where(const char* list, std::size_t i) {
+  return std::string("response: ") + list + "[" + std::to_string(i) + "]: ";
+}
+
 Status validate_nodes(std::span<const IntrudingNode> list, std::size_t nodes, std::size_t tets,
                       const char* name) {
   for (std::size_t i = 0; i < list.size(); ++i) {
-    const std::string where = std::string("response: ") + name + "[" + std::to_string(i) + "]: ";
     if (list[i].node < 0 || static_cast<std::size_t>(list[i].node) >= nodes)
-      return invalid(where + "node " + range_text(list[i].node, nodes));
+      return invalid(where(name, i) + "node " + range_text(list[i].node, nodes));
     if (list[i].tet < 0 || static_cast<std::size_t>(list[i].tet) >= tets)
-      return invalid(where + "tet " + range_text(list[i].tet, tets));
+      return invalid(where(name, i) + "tet " + range_text(list[i].tet, tets));
   }
   return {};
 }
@@ -81,62 +84,58 @@ Status validate_edges(std::span<const IntrudingEdge> list, std::size_t edges, st
   constexpr double kSlack = 1e-6;  // detection's rounding on lambda
   for (std::size_t i = 0; i < list.size(); ++i) {
     const IntrudingEdge& e = list[i];
-    const std::string where = std::string("response: ") + name + "[" + std::to_string(i) + "]: ";
     if (e.edge < 0 || static_cast<std::size_t>(e.edge) >= edges)
-      return invalid(where + "edge " + range_text(e.edge, edges));
+      return invalid(where(name, i) + "edge " + range_text(e.edge, edges));
     if (e.tet < 0 || static_cast<std::size_t>(e.tet) >= tets)
-      return invalid(where + "tet " + range_text(e.tet, tets));
+      return invalid(where(name, i) + "tet " + range_text(e.tet, tets));
     // Non-finite lambdas are skipped with a count; finite ones must be ordered in [0, 1].
     if (std::isfinite(e.lambda_in) && std::isfinite(e.lambda_out) &&
         (e.lambda_in < -kSlack || e.lambda_out > 1.0 + kSlack ||
          e.lambda_in > e.lambda_out + kSlack))
-      return invalid(where + "need 0 <= lambda_in <= lambda_out <= 1, got [" +
+      return invalid(where(name, i) + "need 0 <= lambda_in <= lambda_out <= 1, got [" +
                      std::to_string(e.lambda_in) + ", " + std::to_string(e.lambda_out) + "]");
   }
   return {};
 }
 
-/// Box, centre and mean edge length of an object's contact tets.
+/// Box, centre and (when asked) RMS edge length of an object's contact tets.
 struct ContactRegion {
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
   Vec3 centre = Vec3::Zero();
-  double mean_edge = 0.0;
+  double rms_edge = 0.0;
   bool empty = true;
 };
 
-ContactRegion contact_region(const ResponseObject& o, std::span<const Index> marked) {
+ContactRegion contact_region(const ResponseObject& o, std::span<const Index> marked, bool edges) {
   ContactRegion region;
   double edge_sum = 0.0;
   std::size_t count = 0;
   for (const Index t : marked) {
     const Tet& tet = o.tets[static_cast<std::size_t>(t)];
-    Vec3 centre = Vec3::Zero();
-    bool finite = true;
-    for (int k = 0; k < 4; ++k) finite = finite && o.positions->col(tet[k]).allFinite();
-    if (!finite) continue;
-    for (int k = 0; k < 4; ++k) {
-      const Vec3 x = o.positions->col(tet[k]);
-      region.lo = region.lo.cwiseMin(x);
-      region.hi = region.hi.cwiseMax(x);
-      centre += 0.25 * x;
+    const std::array<Vec3, 4> x = {o.positions->col(tet[0]), o.positions->col(tet[1]),
+                                   o.positions->col(tet[2]), o.positions->col(tet[3])};
+    if (!(x[0].allFinite() && x[1].allFinite() && x[2].allFinite() && x[3].allFinite())) continue;
+    for (const Vec3& p : x) {
+      region.lo = region.lo.cwiseMin(p);
+      region.hi = region.hi.cwiseMax(p);
     }
-    for (const auto& e : kTetEdges)
-      edge_sum += (o.positions->col(tet[e[0]]) - o.positions->col(tet[e[1]])).norm();
-    region.centre += centre;
+    region.centre += 0.25 * (x[0] + x[1] + x[2] + x[3]);
+    if (edges)
+      for (const auto& e : kTetEdges) edge_sum += (x[e[0]] - x[e[1]]).squaredNorm();
     ++count;
   }
   if (count > 0) {
     region.empty = false;
     region.centre /= static_cast<double>(count);
-    region.mean_edge = edge_sum / (6.0 * static_cast<double>(count));
+    region.rms_edge = std::sqrt(edge_sum / (6.0 * static_cast<double>(count)));
   }
   return region;
 }
 
 ContactDensity density_of(const ContactRegion& x, const ContactRegion& y) {
   ContactDensity density;
-  density.mean_edge = x.mean_edge;
+  density.rms_edge = x.rms_edge;
   if (!x.empty && !y.empty) {
     const Vec3 lo = x.lo.cwiseMax(y.lo), hi = x.hi.cwiseMin(y.hi);
     density.contact_extent = (hi - lo).cwiseMax(0.0).norm();
@@ -161,14 +160,14 @@ void ResponseStats::add(const ResponseStats& other) {
 
 ContactDensity measure_contact_density(const ResponseObject& x, std::span<const Index> marked_x,
                                        const ResponseObject& y, std::span<const Index> marked_y) {
-  return density_of(contact_region(x, marked_x), contact_region(y, marked_y));
+  return density_of(contact_region(x, marked_x, true), contact_region(y, marked_y, false));
 }
 
 ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
                                   double threshold) {
   if (requested != ResponseKind::kAuto) return requested;
-  return density.mean_edge > threshold * density.contact_extent ? ResponseKind::kSegment
-                                                                : ResponseKind::kPoint;
+  return density.rms_edge > threshold * density.contact_extent ? ResponseKind::kSegment
+                                                               : ResponseKind::kPoint;
 }
 
 ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
@@ -238,12 +237,17 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   if (Status s = validate_marked(contacts.marked_a, a.tets.size(), "marked_a"); !s) return s;
   if (Status s = validate_marked(contacts.marked_b, b.tets.size(), "marked_b"); !s) return s;
 
-  const ContactRegion region_a = contact_region(a, contacts.marked_a);
-  const ContactRegion region_b = contact_region(b, contacts.marked_b);
-  out.used_a_in_b =
-      choose_response_kind(options.kind, density_of(region_a, region_b), options.auto_threshold);
-  out.used_b_in_a =
-      choose_response_kind(options.kind, density_of(region_b, region_a), options.auto_threshold);
+  // kAuto measures the contact regions; other kinds skip that work.
+  if (options.kind == ResponseKind::kAuto) {
+    const ContactRegion region_a = contact_region(a, contacts.marked_a, true);
+    const ContactRegion region_b = contact_region(b, contacts.marked_b, true);
+    out.used_a_in_b =
+        choose_response_kind(options.kind, density_of(region_a, region_b), options.auto_threshold);
+    out.used_b_in_a =
+        choose_response_kind(options.kind, density_of(region_b, region_a), options.auto_threshold);
+  } else {
+    out.used_a_in_b = out.used_b_in_a = options.kind;
+  }
   const bool seg_ab = out.used_a_in_b == ResponseKind::kSegment;
   const bool seg_ba = out.used_b_in_a == ResponseKind::kSegment;
   const std::size_t n_a = static_cast<std::size_t>(a.positions->cols());
@@ -257,14 +261,24 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
              : validate_nodes(contacts.nodes_b_in_a, n_b, a.tets.size(), "nodes_b_in_a");
   if (!s) return s;
 
-  // Fallback direction 3: from Y's contact centre towards X's.
+  // Fallback direction 3, from B's contact centre towards A's: computed on first need
+  // (a contact whose gradient and boundary faces both failed), then reused.
+  bool have_pair_direction = false;
   Vec3 dir_ab = Vec3::Zero();
-  if (!region_a.empty && !region_b.empty) {
-    const Vec3 d = region_a.centre - region_b.centre;
-    const double scale =
-        std::max((region_a.hi - region_a.lo).norm(), (region_b.hi - region_b.lo).norm());
-    if (d.norm() > 1e-9 * scale && d.allFinite()) dir_ab = d.normalized();
-  }
+  const auto pair_direction = [&]() -> const Vec3& {
+    if (!have_pair_direction) {
+      have_pair_direction = true;
+      const ContactRegion region_a = contact_region(a, contacts.marked_a, false);
+      const ContactRegion region_b = contact_region(b, contacts.marked_b, false);
+      if (!region_a.empty && !region_b.empty) {
+        const Vec3 d = region_a.centre - region_b.centre;
+        const double scale =
+            std::max((region_a.hi - region_a.lo).norm(), (region_b.hi - region_b.lo).norm());
+        if (d.norm() > 1e-9 * scale && d.allFinite()) dir_ab = d.normalized();
+      }
+    }
+    return dir_ab;
+  };
 
   sums_a_.prepare(a.positions->cols(), blocks);
   sums_b_.prepare(b.positions->cols(), blocks);
@@ -306,34 +320,47 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     }
   };
   // Per-contact work, in parallel for large lists; the sums always run in list order.
+  // Kernels first run without the pair direction; the rare contact that needs it
+  // (fallback kAxis) is redone with it, in the ordered pass.
   const auto run = [&](const auto& list, bool segment, const ResponseObject& x,
-                       const ResponseObject& y, NodeSums& xs, NodeSums& ys, const Vec3& dir) {
-    const auto kernel = [&](const auto& c) {
+                       const ResponseObject& y, NodeSums& xs, NodeSums& ys, double sign) {
+    const auto kernel = [&](const auto& c, const Vec3& dir) {
       if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingEdge>)
         return segment_contact(x, y, c, options, dir);
       else
         return point_contact(x, y, c, options, dir);
     };
+    const auto finish = [&](const auto& c, const ContactResult& r) {
+      if (r.fallback == Fallback::kAxis && !r.skipped) {
+        const Vec3 dir = sign * pair_direction();
+        if (!dir.isZero()) {
+          accumulate(kernel(c, dir), segment, xs, ys);
+          return;
+        }
+      }
+      accumulate(r, segment, xs, ys);
+    };
+    const Vec3 none = Vec3::Zero();
     if (list.size() >= std::max<std::size_t>(options.parallel_threshold, 1)) {
       results_.resize(list.size());
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 64),
                         [&](const tbb::blocked_range<std::size_t>& range) {
                           for (std::size_t i = range.begin(); i != range.end(); ++i)
-                            results_[i] = kernel(list[i]);
+                            results_[i] = kernel(list[i], none);
                         });
-      for (std::size_t i = 0; i < list.size(); ++i) accumulate(results_[i], segment, xs, ys);
+      for (std::size_t i = 0; i < list.size(); ++i) finish(list[i], results_[i]);
     } else {
-      for (const auto& c : list) accumulate(kernel(c), segment, xs, ys);
+      for (const auto& c : list) finish(c, kernel(c, none));
     }
   };
   if (seg_ab)
-    run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, dir_ab);
+    run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, 1.0);
   else
-    run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, dir_ab);
+    run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, 1.0);
   if (seg_ba)
-    run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, Vec3(-dir_ab));
+    run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, -1.0);
   else
-    run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, Vec3(-dir_ab));
+    run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, -1.0);
 
   sums_a_.extract(out.a, blocks);
   sums_b_.extract(out.b, blocks);

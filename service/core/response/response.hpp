@@ -48,7 +48,7 @@ struct PairResponse {
 
 /// What kAuto measures for the features of X entering Y.
 struct ContactDensity {
-  double mean_edge = 0.0;       ///< mean edge length of X's contact tets (6 per tet), m
+  double rms_edge = 0.0;        ///< RMS edge length of X's contact tets (6 per tet), m
   double contact_extent = 0.0;  ///< diagonal of bbox(X's contact tets) & bbox(Y's), m
 };
 
@@ -62,7 +62,7 @@ ContactDensity measure_contact_density(const ResponseObject& x, std::span<const 
 
 /// The paper picks the response "with respect to the mesh density": kPoint and
 /// kSegment are returned as asked; kAuto gives kSegment when X's mesh is coarse
-/// relative to the contact, mean_edge > threshold * contact_extent, else kPoint.
+/// relative to the contact, rms_edge > threshold * contact_extent, else kPoint.
 ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
                                   double threshold);
 

@@ -1,4 +1,4 @@
-// Test-only helpers for the response tests: an object bundle (mesh, topology, depth),
+// Test and benchmark helpers for the response stage: an object bundle (mesh, topology, depth),
 // analytic box depth, and brute-force contacts (point-in-tet by signed sub-volumes,
 // segment clipping against the four face half-spaces). Independent of the code under
 // test: nothing here calls service/core/response.
