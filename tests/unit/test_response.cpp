@@ -343,10 +343,10 @@ TEST(Determinism, BitIdenticalAcrossThreadCountsAndRuns) {
     ASSERT_FALSE(serial.a.nodes.empty());
     o.parallel_threshold = 1;
     ResponseAccumulator reused;
+    PairResponse r;  // reused too: cleared, not reallocated
     for (const int threads : {1, 2}) {
       tbb::task_arena arena(threads);
       for (int run = 0; run < 2; ++run) {
-        PairResponse r;
         arena.execute([&] { ASSERT_TRUE(reused.compute(p.a.view(), p.b.view(), c, o, r)); });
         EXPECT_TRUE(same(r.a, serial.a)) << threads;
         EXPECT_TRUE(same(r.b, serial.b)) << threads;

@@ -226,7 +226,14 @@ void ResponseAccumulator::NodeSums::extract(ObjectForces& out, bool blocks) {
 Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObject& b,
                                     const PairContacts& contacts, const ResponseOptions& options,
                                     PairResponse& out) {
-  out = PairResponse{};
+  // Reset without freeing: a reused PairResponse keeps its capacity across frames.
+  for (ObjectForces* f : {&out.a, &out.b}) {
+    f->nodes.clear();
+    f->forces.clear();
+    f->stiffness.clear();
+  }
+  out.used_a_in_b = out.used_b_in_a = ResponseKind::kPoint;
+  out.stats = ResponseStats{};
   if (Status s = validate_options(options); !s) return s;
   if (Status s = validate_object(a, "A"); !s) return s;
   if (Status s = validate_object(b, "B"); !s) return s;

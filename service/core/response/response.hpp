@@ -39,7 +39,7 @@ struct ResponseStats {
 
 /// The response of one pair (A, B).
 struct PairResponse {
-  ObjectForces a;  ///< forces on A's nodes (object name left empty), sorted by node
+  ObjectForces a;  ///< forces on A's nodes, sorted by node (object name: the caller's)
   ObjectForces b;  ///< forces on B's nodes
   ResponseKind used_a_in_b = ResponseKind::kPoint;  ///< kPoint or kSegment (A's features in B)
   ResponseKind used_b_in_a = ResponseKind::kPoint;  ///< kPoint or kSegment (B's features in A)
@@ -84,7 +84,8 @@ class ResponseAccumulator {
   /// @param[in]  a, b      the objects; positions 3 x n, metres; depth n values, metres.
   /// @param[in]  contacts  detection output for (A, B); lists sorted as documented there.
   /// @param[in]  options   response settings (validated: finite, non-negative).
-  /// @param[out] out       replaced; blocks present iff options.stiffness_mode != kNone.
+  /// @param[out] out       overwritten (its vectors keep their capacity; object names are
+  ///                       left as they are); blocks present iff stiffness_mode != kNone.
   /// @return kInvalidArgument naming the array or the contact at fault (sizes that do
   ///         not match, indices out of range, lambda outside [0, 1]); out is then empty.
   Status compute(const ResponseObject& a, const ResponseObject& b, const PairContacts& contacts,
