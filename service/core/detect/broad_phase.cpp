@@ -1,0 +1,530 @@
+#include "core/detect/broad_phase.hpp"
+
+#include <tbb/parallel_invoke.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+
+#include "core/detect/chunked.hpp"
+
+namespace tc {
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+/// Tets of A per chunk of the parallel query loops.
+constexpr std::size_t kQueryChunk = 64;
+/// Subtree depth above which AabbTree::refit forks.
+constexpr int kRefitParallelDepth = 6;
+
+bool sphere_overlap(const BoundingSphere& a, const BoundingSphere& b) {
+  const double r = a.radius + b.radius;
+  return a.radius >= 0.0 && b.radius >= 0.0 && (a.center - b.center).squaredNorm() <= r * r;
+}
+
+/// Cell lattice over a region: cell (i, j, k) covers lo + h [i, i+1) x ...
+struct Lattice {
+  Vector3d lo = Vector3d::Zero();
+  double h = 1.0;
+  std::array<std::int64_t, 3> dims = {1, 1, 1};
+
+  /// Cell coordinate of x along axis d, clamped into the lattice.
+  [[nodiscard]] std::int32_t coord(double x, int d) const {
+    const double c = std::floor((x - lo[d]) / h);
+    const double clamped = std::clamp(c, 0.0, static_cast<double>(dims[d] - 1));
+    return static_cast<std::int32_t>(clamped);
+  }
+  [[nodiscard]] std::array<std::int32_t, 3> low(const Aabb& b) const {
+    return {coord(b.lo.x(), 0), coord(b.lo.y(), 1), coord(b.lo.z(), 2)};
+  }
+  [[nodiscard]] std::array<std::int32_t, 3> high(const Aabb& b) const {
+    return {coord(b.hi.x(), 0), coord(b.hi.y(), 1), coord(b.hi.z(), 2)};
+  }
+  [[nodiscard]] std::int64_t index(std::int32_t i, std::int32_t j, std::int32_t k) const {
+    return i + dims[0] * (j + dims[1] * static_cast<std::int64_t>(k));
+  }
+};
+
+/// Sets the lattice dims over `region` for cell size h, growing h until the lattice has
+/// at most `max_cells` cells (and at most 2^20 per axis).
+void size_lattice(Lattice& lat, const Aabb& region, double h, double max_cells) {
+  const Vector3d ext = (region.hi - region.lo).cwiseMax(0.0);
+  const double max_ext = ext.maxCoeff();
+  if (!(h > 0.0) || !std::isfinite(h)) h = max_ext > 0.0 ? max_ext : 1.0;
+  lat.lo = region.lo;
+  for (int iter = 0; iter < 64; ++iter) {
+    double total = 1.0;
+    bool ok = true;
+    for (int d = 0; d < 3; ++d) {
+      const double n = std::max(1.0, std::ceil(ext[d] / h));
+      ok = ok && n <= double(1 << 20);
+      total *= n;
+    }
+    if (ok && total <= max_cells) break;
+    const double grow = std::isfinite(total) ? std::cbrt(total / max_cells) : 2.0;
+    h *= std::max(grow, 1.0) * 1.01 + kEps;
+    if (!std::isfinite(h)) h = max_ext > 0.0 ? max_ext : 1.0;
+  }
+  lat.h = h;
+  for (int d = 0; d < 3; ++d)
+    lat.dims[d] = static_cast<std::int64_t>(std::max(1.0, std::ceil(ext[d] / h)));
+}
+
+/// The box of a bounding sphere.
+Aabb sphere_box(const BoundingSphere& s) {
+  return {s.center.array() - s.radius, s.center.array() + s.radius};
+}
+
+/// Sorts each tet of A's run of pairs by b (pairs of one tet are appended together).
+void sort_tail(std::vector<TetPair>& part, std::size_t start) {
+  std::sort(part.begin() + static_cast<std::ptrdiff_t>(start), part.end());
+}
+
+std::uint64_t next_prime(std::uint64_t n) {
+  if (n <= 2) return 2;
+  if (n % 2 == 0) ++n;
+  for (;; n += 2) {
+    bool prime = true;
+    for (std::uint64_t d = 3; d * d <= n; d += 2)
+      if (n % d == 0) {
+        prime = false;
+        break;
+      }
+    if (prime) return n;
+  }
+}
+
+/// Teschner et al. 2003 hash of a cell, modulo the table size.
+std::uint64_t cell_hash(std::int32_t i, std::int32_t j, std::int32_t k, std::uint64_t size) {
+  const std::uint64_t h = (static_cast<std::uint64_t>(i) * 73856093ULL) ^
+                          (static_cast<std::uint64_t>(j) * 19349663ULL) ^
+                          (static_cast<std::uint64_t>(k) * 83492791ULL);
+  return h % size;
+}
+
+}  // namespace
+
+std::string_view broad_phase_name(BroadPhaseKind kind) {
+  switch (kind) {
+    case BroadPhaseKind::kGrid:
+      return "grid";
+    case BroadPhaseKind::kHash:
+      return "hash";
+    case BroadPhaseKind::kSap:
+      return "sap";
+    case BroadPhaseKind::kBvh:
+      return "bvh";
+  }
+  return "grid";
+}
+
+std::optional<BroadPhaseKind> parse_broad_phase(std::string_view name) {
+  for (const BroadPhaseKind k :
+       {BroadPhaseKind::kGrid, BroadPhaseKind::kHash, BroadPhaseKind::kSap, BroadPhaseKind::kBvh})
+    if (broad_phase_name(k) == name) return k;
+  return std::nullopt;
+}
+
+void TetBounds::compute(const Positions& positions, std::span<const Tet> tets) {
+  const std::size_t m = tets.size();
+  boxes.resize(m);
+  spheres.resize(m);
+  detail::for_chunks(m, 2048, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Tet& t = tets[i];
+      Vector3d c[4];
+      bool finite = true;
+      for (int k = 0; k < 4; ++k) {
+        c[k] = positions.col(t[k]);
+        finite = finite && c[k].allFinite();
+      }
+      if (!finite) {
+        boxes[i] = Aabb{};
+        spheres[i] = BoundingSphere{};
+        continue;
+      }
+      Aabb box{c[0], c[0]};
+      for (int k = 1; k < 4; ++k) box.extend(c[k]);
+      boxes[i] = box;
+      const Vector3d center = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+      double r2 = 0.0;
+      for (int k = 0; k < 4; ++k) r2 = std::max(r2, (c[k] - center).squaredNorm());
+      // A hair larger than the rounded radius, so the sphere surely holds the corners.
+      spheres[i] = {center, std::sqrt(r2) * (1.0 + 16.0 * kEps)};
+    }
+  });
+}
+
+// ---------------------------------------------------------------------------- AabbTree
+
+void AabbTree::build(std::span<const Aabb> boxes) {
+  nodes_.clear();
+  items_.resize(boxes.size());
+  std::iota(items_.begin(), items_.end(), Index{0});
+  if (boxes.empty()) return;
+  std::vector<Vector3d> centers(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const Vector3d c = 0.5 * (boxes[i].lo + boxes[i].hi);
+    centers[i] = c.allFinite() ? c : Vector3d::Zero();
+  }
+  nodes_.reserve(boxes.size());
+  build_node(items_, centers, 0);
+  refit(boxes);
+}
+
+Index AabbTree::build_node(std::span<Index> items, std::span<const Vector3d> centers, Index first) {
+  const Index node = static_cast<Index>(nodes_.size());
+  nodes_.emplace_back();
+  if (items.size() <= 4) {
+    nodes_[node].first = first;
+    nodes_[node].count = static_cast<Index>(items.size());
+    return node;
+  }
+  Aabb cb;
+  for (const Index i : items) cb.extend(centers[i]);
+  const Vector3d ext = cb.hi - cb.lo;
+  int axis = 0;
+  if (ext.y() > ext[axis]) axis = 1;
+  if (ext.z() > ext[axis]) axis = 2;
+  const std::size_t mid = items.size() / 2;
+  std::nth_element(items.begin(), items.begin() + static_cast<std::ptrdiff_t>(mid), items.end(),
+                   [&](Index x, Index y) {
+                     const double cx = centers[x][axis], cy = centers[y][axis];
+                     return cx < cy || (cx == cy && x < y);
+                   });
+  build_node(items.first(mid), centers, first);
+  const Index right = build_node(items.subspan(mid), centers, first + static_cast<Index>(mid));
+  nodes_[node].right = right;
+  return node;
+}
+
+void AabbTree::refit(std::span<const Aabb> boxes) {
+  if (!nodes_.empty()) refit_node(0, boxes, 0);
+}
+
+void AabbTree::refit_node(Index node, std::span<const Aabb> boxes, int depth) {
+  Node& n = nodes_[node];
+  if (n.count > 0) {
+    Aabb box;
+    for (Index i = n.first; i < n.first + n.count; ++i) box.extend(boxes[items_[i]]);
+    n.box = box;
+    return;
+  }
+  const Index left = node + 1, right = n.right;
+  if (depth < kRefitParallelDepth && n.right - node > 2048) {
+    tbb::parallel_invoke([&] { refit_node(left, boxes, depth + 1); },
+                         [&] { refit_node(right, boxes, depth + 1); });
+  } else {
+    refit_node(left, boxes, depth + 1);
+    refit_node(right, boxes, depth + 1);
+  }
+  n.box = nodes_[left].box;
+  n.box.extend(nodes_[right].box);
+}
+
+void AabbTree::query(const Aabb& box, std::span<const Aabb> boxes, std::vector<Index>& out) const {
+  if (nodes_.empty() || box.empty()) return;
+  Index stack[96];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Index id = stack[--top];
+    const Node& n = nodes_[id];
+    if (!n.box.overlaps(box)) continue;
+    if (n.count > 0) {
+      for (Index i = n.first; i < n.first + n.count; ++i)
+        if (boxes[items_[i]].overlaps(box)) out.push_back(items_[i]);
+    } else {
+      stack[top++] = n.right;
+      stack[top++] = id + 1;
+    }
+  }
+}
+
+// -------------------------------------------------------------------------- BroadPhase
+
+void BroadPhase::find_pairs(BroadPhaseKind kind, const TetBounds& a,
+                            std::span<const Index> subset_a, const TetBounds& b,
+                            std::span<const Index> subset_b, const AabbTree* tree_b,
+                            std::vector<TetPair>& out) {
+  const std::size_t chunks = detail::num_chunks(subset_a.size(), kQueryChunk);
+  detail::reset_parts(parts_, chunks);
+  const bool empty_b = kind == BroadPhaseKind::kBvh
+                           ? (tree_b == nullptr || tree_b->num_items() == 0)
+                           : subset_b.empty();
+  if (!subset_a.empty() && !empty_b) {
+    switch (kind) {
+      case BroadPhaseKind::kGrid:
+        grid_pairs(a, subset_a, b, subset_b);
+        break;
+      case BroadPhaseKind::kHash:
+        hash_pairs(a, subset_a, b, subset_b);
+        break;
+      case BroadPhaseKind::kSap:
+        sap_pairs(a, subset_a, b, subset_b);
+        break;
+      case BroadPhaseKind::kBvh:
+        bvh_pairs(a, subset_a, b, *tree_b);
+        break;
+    }
+  }
+  detail::concat_parts(parts_, chunks, out);
+}
+
+void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
+                            std::span<const Index> subset_b) {
+  // The grid covers the spheres of B; cell size = mean sphere diameter (paper, Sec. 3).
+  Aabb region;
+  double diameter_sum = 0.0;
+  std::size_t count = 0;
+  for (const Index t : subset_b) {
+    const BoundingSphere& s = b.spheres[t];
+    if (s.radius < 0.0) continue;
+    region.extend(sphere_box(s));
+    diameter_sum += 2.0 * s.radius;
+    ++count;
+  }
+  for (const Index t : subset_a) {
+    if (a.spheres[t].radius < 0.0) continue;
+    diameter_sum += 2.0 * a.spheres[t].radius;
+    ++count;
+  }
+  if (region.empty() || count == 0) return;
+  Lattice lat;
+  size_lattice(lat, region, diameter_sum / double(count), 2.0 * double(subset_b.size()) + 1024.0);
+  const std::int64_t cells = lat.dims[0] * lat.dims[1] * lat.dims[2];
+
+  // Counting sort of B's spheres into cells (B order within each cell).
+  cell_start_.assign(static_cast<std::size_t>(cells) + 1, 0);
+  low_b_.resize(subset_b.size());
+  for (std::size_t k = 0; k < subset_b.size(); ++k) {
+    const BoundingSphere& s = b.spheres[subset_b[k]];
+    if (s.radius < 0.0) {
+      low_b_[k] = {1, 1, 1};  // never matches: empty range below
+      continue;
+    }
+    const Aabb sb = sphere_box(s);
+    const auto lo = lat.low(sb), hi = lat.high(sb);
+    low_b_[k] = lo;
+    for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+      for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+        for (std::int32_t x = lo[0]; x <= hi[0]; ++x) ++cell_start_[lat.index(x, y, z) + 1];
+  }
+  for (std::size_t c = 0; c < static_cast<std::size_t>(cells); ++c)
+    cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(static_cast<std::size_t>(cell_start_.back()));
+  {
+    std::vector<Index> fill(cell_start_.begin(), cell_start_.end() - 1);
+    for (std::size_t k = 0; k < subset_b.size(); ++k) {
+      const BoundingSphere& s = b.spheres[subset_b[k]];
+      if (s.radius < 0.0) continue;
+      const Aabb sb = sphere_box(s);
+      const auto lo = lat.low(sb), hi = lat.high(sb);
+      for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+        for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+          for (std::int32_t x = lo[0]; x <= hi[0]; ++x)
+            cell_items_[fill[lat.index(x, y, z)]++] = static_cast<Index>(k);
+    }
+  }
+
+  detail::for_chunks(
+      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+        std::vector<TetPair>& part = parts_[chunk];
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index ta = subset_a[i];
+          const BoundingSphere& s = a.spheres[ta];
+          if (s.radius < 0.0) continue;
+          const Aabb sa = sphere_box(s);
+          if (!sa.overlaps(region)) continue;
+          const auto lo = lat.low(sa), hi = lat.high(sa);
+          const std::size_t start = part.size();
+          for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+            for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+              for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
+                const std::int64_t c = lat.index(x, y, z);
+                for (Index e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+                  const Index k = cell_items_[e];
+                  const auto& lb = low_b_[k];
+                  // Report each pair once: in the first cell the two ranges share.
+                  if (x != std::max(lo[0], lb[0]) || y != std::max(lo[1], lb[1]) ||
+                      z != std::max(lo[2], lb[2]))
+                    continue;
+                  const Index tb = subset_b[k];
+                  if (sphere_overlap(s, b.spheres[tb]) && a.boxes[ta].overlaps(b.boxes[tb]))
+                    part.push_back({ta, tb});
+                }
+              }
+          sort_tail(part, start);
+        }
+      });
+}
+
+void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
+                            std::span<const Index> subset_b) {
+  // Cell size = mean tet box extent (Teschner et al. found the mean edge length best).
+  Aabb region;
+  double size_sum = 0.0;
+  std::size_t count = 0;
+  for (const Index t : subset_b) {
+    const Aabb& box = b.boxes[t];
+    if (box.empty()) continue;
+    region.extend(box);
+    size_sum += (box.hi - box.lo).sum() / 3.0;
+    ++count;
+  }
+  for (const Index t : subset_a) {
+    const Aabb& box = a.boxes[t];
+    if (box.empty()) continue;
+    size_sum += (box.hi - box.lo).sum() / 3.0;
+    ++count;
+  }
+  if (region.empty() || count == 0) return;
+  // Cells are counted from region.lo (so coordinates are small and non-negative) and
+  // clamped into B's region, which loses nothing: no tet of B lies outside it.
+  Lattice lat;
+  double h = size_sum / double(count);
+  const double max_entries = 8.0 * double(subset_b.size()) + 1024.0;
+  for (int iter = 0;; ++iter) {
+    size_lattice(lat, region, h, 1e15);
+    double entries = 0.0;
+    for (const Index t : subset_b) {
+      const Aabb& box = b.boxes[t];
+      if (box.empty()) continue;
+      const auto lo = lat.low(box), hi = lat.high(box);
+      entries += double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
+    }
+    if (entries <= max_entries || iter >= 32) break;
+    h = lat.h * 1.5;  // an outsized tet: coarser cells
+  }
+
+  entries_.clear();
+  low_b_.resize(subset_b.size());
+  for (std::size_t k = 0; k < subset_b.size(); ++k) {
+    const Aabb& box = b.boxes[subset_b[k]];
+    if (box.empty()) {
+      low_b_[k] = {-1, -1, -1};
+      continue;
+    }
+    const auto lo = lat.low(box), hi = lat.high(box);
+    low_b_[k] = lo;
+    for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+      for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+        for (std::int32_t x = lo[0]; x <= hi[0]; ++x)
+          entries_.push_back({static_cast<std::int32_t>(k), x, y, z});
+  }
+  const std::uint64_t table = next_prime(2 * entries_.size() + 1);
+  cell_start_.assign(table + 1, 0);
+  for (const auto& e : entries_) ++cell_start_[cell_hash(e[1], e[2], e[3], table) + 1];
+  for (std::uint64_t c = 0; c < table; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(entries_.size());
+  {
+    std::vector<Index> fill(cell_start_.begin(), cell_start_.end() - 1);
+    for (std::size_t e = 0; e < entries_.size(); ++e) {
+      const auto& en = entries_[e];
+      cell_items_[fill[cell_hash(en[1], en[2], en[3], table)]++] = static_cast<Index>(e);
+    }
+  }
+
+  detail::for_chunks(
+      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+        std::vector<TetPair>& part = parts_[chunk];
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index ta = subset_a[i];
+          const Aabb& box = a.boxes[ta];
+          if (!box.overlaps(region)) continue;
+          const auto lo = lat.low(box), hi = lat.high(box);
+          const std::size_t start = part.size();
+          for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+            for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+              for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
+                const std::uint64_t bucket = cell_hash(x, y, z, table);
+                for (Index s = cell_start_[bucket]; s < cell_start_[bucket + 1]; ++s) {
+                  const auto& en = entries_[cell_items_[s]];
+                  if (en[1] != x || en[2] != y || en[3] != z) continue;  // hash collision
+                  const auto& lb = low_b_[en[0]];
+                  if (x != std::max(lo[0], lb[0]) || y != std::max(lo[1], lb[1]) ||
+                      z != std::max(lo[2], lb[2]))
+                    continue;  // reported in the first shared cell
+                  const Index tb = subset_b[en[0]];
+                  if (box.overlaps(b.boxes[tb])) part.push_back({ta, tb});
+                }
+              }
+          sort_tail(part, start);
+        }
+      });
+}
+
+void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
+                           std::span<const Index> subset_b) {
+  // Sweep axis: the one along which the box centres spread most.
+  Vector3d sum = Vector3d::Zero(), sum2 = Vector3d::Zero();
+  std::size_t count = 0;
+  const auto add = [&](const Aabb& box) {
+    if (box.empty()) return;
+    const Vector3d c = 0.5 * (box.lo + box.hi);
+    sum += c;
+    sum2 += c.cwiseProduct(c);
+    ++count;
+  };
+  for (const Index t : subset_a) add(a.boxes[t]);
+  for (const Index t : subset_b) add(b.boxes[t]);
+  if (count == 0) return;
+  const Vector3d mean = sum / double(count);
+  const Vector3d var = sum2 / double(count) - mean.cwiseProduct(mean);
+  int axis = 0;
+  if (var.y() > var[axis]) axis = 1;
+  if (var.z() > var[axis]) axis = 2;
+
+  sorted_b_.clear();
+  double max_len = 0.0;
+  for (const Index t : subset_b) {
+    const Aabb& box = b.boxes[t];
+    if (box.empty()) continue;
+    sorted_b_.emplace_back(box.lo[axis], t);
+    max_len = std::max(max_len, box.hi[axis] - box.lo[axis]);
+  }
+  if (sorted_b_.size() > 8192)
+    tbb::parallel_sort(sorted_b_.begin(), sorted_b_.end());
+  else
+    std::sort(sorted_b_.begin(), sorted_b_.end());
+
+  detail::for_chunks(
+      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+        std::vector<TetPair>& part = parts_[chunk];
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index ta = subset_a[i];
+          const Aabb& box = a.boxes[ta];
+          if (box.empty()) continue;
+          // B boxes starting in [lo_a - max_len, hi_a] are the only ones that can reach A's.
+          const auto first = std::lower_bound(
+              sorted_b_.begin(), sorted_b_.end(), box.lo[axis] - max_len,
+              [](const std::pair<double, Index>& e, double v) { return e.first < v; });
+          const std::size_t start = part.size();
+          for (auto it = first; it != sorted_b_.end() && it->first <= box.hi[axis]; ++it)
+            if (box.overlaps(b.boxes[it->second])) part.push_back({ta, it->second});
+          sort_tail(part, start);
+        }
+      });
+}
+
+void BroadPhase::bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
+                           const AabbTree& tree_b) {
+  detail::for_chunks(subset_a.size(), kQueryChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+                       std::vector<TetPair>& part = parts_[chunk];
+                       std::vector<Index> found;
+                       for (std::size_t i = begin; i < end; ++i) {
+                         const Index ta = subset_a[i];
+                         found.clear();
+                         tree_b.query(a.boxes[ta], b.boxes, found);
+                         std::sort(found.begin(), found.end());
+                         for (const Index tb : found) part.push_back({ta, tb});
+                       }
+                     });
+}
+
+}  // namespace tc
