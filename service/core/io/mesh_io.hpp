@@ -45,6 +45,20 @@ Expected<TetMesh> read_tetgen(const std::filesystem::path& path);
 Expected<TetMesh> read_tetgen_buffers(std::string_view node_text, std::string_view ele_text,
                                       const std::string& name);
 
+/// Gmsh output flavours of write_gmsh().
+enum class GmshFormat { kMsh22Ascii, kMsh41Ascii, kMsh41Binary };
+
+/// The mesh as the text (or bytes) of a Gmsh file: node ids as node tags (they must be
+/// positive and unique), one tet element (type 4) per tet, element tags 1..m. 4.1 files
+/// hold one node block and one element block on volume entity 1 and no $Entities.
+Expected<std::string> format_gmsh(const TetMesh& mesh, GmshFormat format);
+/// Writes format_gmsh() to a file.
+Status write_gmsh(const std::filesystem::path& path, const TetMesh& mesh, GmshFormat format);
+
+/// Number of nodes of a Gmsh element type (1 for points, 4 for 4-node tets, 10 for
+/// type 11, ...), or 0 for unknown types and types of variable size (polygons).
+int gmsh_element_node_count(int type) noexcept;
+
 /// A per-node (point data) or per-tet (cell data) field for the VTU writer.
 struct VtuField {
   std::string name;
