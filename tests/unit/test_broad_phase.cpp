@@ -47,11 +47,11 @@ bool sphere_overlap(const BoundingSphere& a, const BoundingSphere& b) {
 
 std::vector<TetPair> brute_force(BroadPhaseKind kind, const TetBounds& a,
                                  std::span<const Index> subset_a, const TetBounds& b,
-                                 std::span<const Index> subset_b) {
+                                 std::span<const Index> subset_b, const Aabb& clip) {
   std::vector<TetPair> out;
   for (const Index ta : subset_a)
     for (const Index tb : subset_b)
-      if (a.boxes[ta].overlaps(b.boxes[tb]) &&
+      if (a.boxes[ta].intersection(clip).overlaps(b.boxes[tb]) &&
           (kind != BroadPhaseKind::kGrid || sphere_overlap(a.spheres[ta], b.spheres[tb])))
         out.push_back({ta, tb});
   std::sort(out.begin(), out.end());
@@ -72,35 +72,40 @@ std::vector<Index> in_box(const TetBounds& bounds, const Aabb& box) {
   return v;
 }
 
+/// cull: restrict to the tets in the overlap box of the objects and clip to it (what
+/// detection does; it loses no pair). Else: every tet, clipped to `region`.
 void expect_matches_brute_force(BroadPhaseKind kind, const TetMesh& ma, const TetMesh& mb,
-                                bool cull) {
+                                bool cull,
+                                const Aabb& region = {Vector3d::Constant(-1e300),
+                                                      Vector3d::Constant(1e300)}) {
   TetBounds a, b;
   a.compute(ma.positions, ma.tets);
   b.compute(mb.positions, mb.tets);
   std::vector<Index> sa = all_tets(ma), sb = all_tets(mb);
+  Aabb clip = region;
   if (cull) {
     Aabb box_a, box_b;
     for (const Aabb& x : a.boxes)
       if (!x.empty()) box_a.extend(x);
     for (const Aabb& x : b.boxes)
       if (!x.empty()) box_b.extend(x);
-    const Aabb both = box_a.intersection(box_b);
-    sa = in_box(a, both);
-    sb = in_box(b, both);
+    clip = box_a.intersection(box_b);
+    sa = in_box(a, clip);
+    sb = in_box(b, clip);
   }
   AabbTree tree;
   tree.build(b.boxes);
   BroadPhase bp;
   std::vector<TetPair> got;
-  bp.find_pairs(kind, a, sa, b, sb, &tree, got);
+  bp.find_pairs(kind, a, sa, b, sb, &tree, clip, got);
   // The tree covers every tet of B; with culling that loses nothing (a pair of
   // overlapping boxes lies in both object boxes).
   const std::vector<Index> sb_ref = kind == BroadPhaseKind::kBvh ? all_tets(mb) : sb;
-  const std::vector<TetPair> want = brute_force(kind, a, sa, b, sb_ref);
+  const std::vector<TetPair> want = brute_force(kind, a, sa, b, sb_ref, clip);
   EXPECT_EQ(got, want) << broad_phase_name(kind) << ": " << got.size() << " vs " << want.size();
   // Reuse of the buffers gives the same answer.
   std::vector<TetPair> again;
-  bp.find_pairs(kind, a, sa, b, sb, &tree, again);
+  bp.find_pairs(kind, a, sa, b, sb, &tree, clip, again);
   EXPECT_EQ(again, got);
 }
 
@@ -122,6 +127,19 @@ TEST_P(EveryBroadPhase, RandomSoupsMatchBruteForce) {
         transformed(soup(rng, 250, 0.12, oddities), 1.0, Vector3d(0.3 * round / 6.0, -0.1, 0.05));
     expect_matches_brute_force(GetParam(), a, b, round % 3 == 0);
   }
+}
+
+TEST_P(EveryBroadPhase, ClipRegionsMatchBruteForce) {
+  std::mt19937 rng(4321);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const TetMesh a = soup(rng, 300, 0.1, true);
+  const TetMesh b = soup(rng, 300, 0.1, true);
+  for (int round = 0; round < 5; ++round) {
+    const Vector3d lo(u(rng), u(rng), u(rng));
+    const Aabb clip{lo, lo + Vector3d(0.05, 0.3, 0.6) * u(rng)};
+    expect_matches_brute_force(GetParam(), a, b, false, clip);
+  }
+  expect_matches_brute_force(GetParam(), a, b, false, Aabb{});  // empty region
 }
 
 TEST_P(EveryBroadPhase, OverlappingStructuredBoxesMatchBruteForce) {

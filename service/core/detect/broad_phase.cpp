@@ -129,30 +129,29 @@ std::optional<BroadPhaseKind> parse_broad_phase(std::string_view name) {
   return std::nullopt;
 }
 
-void TetBounds::compute(const Positions& positions, std::span<const Tet> tets) {
+void TetBounds::compute(const Positions& positions, std::span<const Tet> tets, bool with_spheres) {
   const std::size_t m = tets.size();
   boxes.resize(m);
-  spheres.resize(m);
+  spheres.resize(with_spheres ? m : 0);
   detail::for_chunks(m, 2048, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t i = begin; i < end; ++i) {
       const Tet& t = tets[i];
-      Vector3d c[4];
-      bool finite = true;
-      for (int k = 0; k < 4; ++k) {
-        c[k] = positions.col(t[k]);
-        finite = finite && c[k].allFinite();
-      }
+      const Vector3d c0 = positions.col(t[0]), c1 = positions.col(t[1]), c2 = positions.col(t[2]),
+                     c3 = positions.col(t[3]);
+      Aabb box{c0.cwiseMin(c1).cwiseMin(c2.cwiseMin(c3)),
+               c0.cwiseMax(c1).cwiseMax(c2.cwiseMax(c3))};
+      // Checked corner by corner: min/max may drop a NaN.
+      const bool finite = c0.allFinite() && c1.allFinite() && c2.allFinite() && c3.allFinite();
+      boxes[i] = finite ? box : Aabb{};
+      if (!with_spheres) continue;
       if (!finite) {
-        boxes[i] = Aabb{};
         spheres[i] = BoundingSphere{};
         continue;
       }
-      Aabb box{c[0], c[0]};
-      for (int k = 1; k < 4; ++k) box.extend(c[k]);
-      boxes[i] = box;
-      const Vector3d center = 0.25 * (c[0] + c[1] + c[2] + c[3]);
-      double r2 = 0.0;
-      for (int k = 0; k < 4; ++k) r2 = std::max(r2, (c[k] - center).squaredNorm());
+      const Vector3d center = 0.25 * (c0 + c1 + c2 + c3);
+      const double r2 =
+          std::max(std::max((c0 - center).squaredNorm(), (c1 - center).squaredNorm()),
+                   std::max((c2 - center).squaredNorm(), (c3 - center).squaredNorm()));
       // A hair larger than the rounded radius, so the sphere surely holds the corners.
       spheres[i] = {center, std::sqrt(r2) * (1.0 + 16.0 * kEps)};
     }
@@ -250,25 +249,25 @@ void AabbTree::query(const Aabb& box, std::span<const Aabb> boxes, std::vector<I
 void BroadPhase::find_pairs(BroadPhaseKind kind, const TetBounds& a,
                             std::span<const Index> subset_a, const TetBounds& b,
                             std::span<const Index> subset_b, const AabbTree* tree_b,
-                            std::vector<TetPair>& out) {
+                            const Aabb& clip, std::vector<TetPair>& out) {
   const std::size_t chunks = detail::num_chunks(subset_a.size(), kQueryChunk);
   detail::reset_parts(parts_, chunks);
   const bool empty_b = kind == BroadPhaseKind::kBvh
                            ? (tree_b == nullptr || tree_b->num_items() == 0)
                            : subset_b.empty();
-  if (!subset_a.empty() && !empty_b) {
+  if (!subset_a.empty() && !empty_b && !clip.empty()) {
     switch (kind) {
       case BroadPhaseKind::kGrid:
-        grid_pairs(a, subset_a, b, subset_b);
+        grid_pairs(a, subset_a, b, subset_b, clip);
         break;
       case BroadPhaseKind::kHash:
-        hash_pairs(a, subset_a, b, subset_b);
+        hash_pairs(a, subset_a, b, subset_b, clip);
         break;
       case BroadPhaseKind::kSap:
-        sap_pairs(a, subset_a, b, subset_b);
+        sap_pairs(a, subset_a, b, subset_b, clip);
         break;
       case BroadPhaseKind::kBvh:
-        bvh_pairs(a, subset_a, b, *tree_b);
+        bvh_pairs(a, subset_a, b, *tree_b, clip);
         break;
     }
   }
@@ -276,15 +275,16 @@ void BroadPhase::find_pairs(BroadPhaseKind kind, const TetBounds& a,
 }
 
 void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                            std::span<const Index> subset_b) {
-  // The grid covers the spheres of B; cell size = mean sphere diameter (paper, Sec. 3).
-  Aabb region;
+                            std::span<const Index> subset_b, const Aabb& clip) {
+  // The grid covers the (clipped) spheres of B; cell size = mean sphere diameter (paper,
+  // Sec. 3).
+  Aabb extent;
   double diameter_sum = 0.0;
   std::size_t count = 0;
   for (const Index t : subset_b) {
     const BoundingSphere& s = b.spheres[t];
     if (s.radius < 0.0) continue;
-    region.extend(sphere_box(s));
+    extent.extend(sphere_box(s).intersection(clip));
     diameter_sum += 2.0 * s.radius;
     ++count;
   }
@@ -293,22 +293,26 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
     diameter_sum += 2.0 * a.spheres[t].radius;
     ++count;
   }
-  if (region.empty() || count == 0) return;
+  if (extent.empty() || count == 0) return;
   Lattice lat;
-  size_lattice(lat, region, diameter_sum / double(count), 2.0 * double(subset_b.size()) + 1024.0);
+  size_lattice(lat, extent, diameter_sum / double(count), 2.0 * double(subset_b.size()) + 1024.0);
   const std::int64_t cells = lat.dims[0] * lat.dims[1] * lat.dims[2];
 
   // Counting sort of B's spheres into cells (B order within each cell).
   cell_start_.assign(static_cast<std::size_t>(cells) + 1, 0);
   low_b_.resize(subset_b.size());
-  for (std::size_t k = 0; k < subset_b.size(); ++k) {
+  const auto range_b = [&](std::size_t k, std::array<std::int32_t, 3>& lo,
+                           std::array<std::int32_t, 3>& hi) {
     const BoundingSphere& s = b.spheres[subset_b[k]];
-    if (s.radius < 0.0) {
-      low_b_[k] = {1, 1, 1};  // never matches: empty range below
-      continue;
-    }
-    const Aabb sb = sphere_box(s);
-    const auto lo = lat.low(sb), hi = lat.high(sb);
+    const Aabb sb = sphere_box(s).intersection(clip);
+    if (s.radius < 0.0 || sb.empty()) return false;
+    lo = lat.low(sb);
+    hi = lat.high(sb);
+    return true;
+  };
+  for (std::size_t k = 0; k < subset_b.size(); ++k) {
+    std::array<std::int32_t, 3> lo, hi;
+    if (!range_b(k, lo, hi)) continue;
     low_b_[k] = lo;
     for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
       for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
@@ -320,10 +324,8 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
   {
     std::vector<Index> fill(cell_start_.begin(), cell_start_.end() - 1);
     for (std::size_t k = 0; k < subset_b.size(); ++k) {
-      const BoundingSphere& s = b.spheres[subset_b[k]];
-      if (s.radius < 0.0) continue;
-      const Aabb sb = sphere_box(s);
-      const auto lo = lat.low(sb), hi = lat.high(sb);
+      std::array<std::int32_t, 3> lo, hi;
+      if (!range_b(k, lo, hi)) continue;
       for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
         for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
           for (std::int32_t x = lo[0]; x <= hi[0]; ++x)
@@ -338,8 +340,9 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
           const Index ta = subset_a[i];
           const BoundingSphere& s = a.spheres[ta];
           if (s.radius < 0.0) continue;
-          const Aabb sa = sphere_box(s);
-          if (!sa.overlaps(region)) continue;
+          const Aabb sa = sphere_box(s).intersection(clip);
+          if (!sa.overlaps(extent)) continue;
+          const Aabb box_a = a.boxes[ta].intersection(clip);
           const auto lo = lat.low(sa), hi = lat.high(sa);
           const std::size_t start = part.size();
           for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
@@ -354,7 +357,7 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
                       z != std::max(lo[2], lb[2]))
                     continue;
                   const Index tb = subset_b[k];
-                  if (sphere_overlap(s, b.spheres[tb]) && a.boxes[ta].overlaps(b.boxes[tb]))
+                  if (sphere_overlap(s, b.spheres[tb]) && box_a.overlaps(b.boxes[tb]))
                     part.push_back({ta, tb});
                 }
               }
@@ -364,15 +367,15 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
 }
 
 void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                            std::span<const Index> subset_b) {
+                            std::span<const Index> subset_b, const Aabb& clip) {
   // Cell size = mean tet box extent (Teschner et al. found the mean edge length best).
-  Aabb region;
+  Aabb extent;
   double size_sum = 0.0;
   std::size_t count = 0;
   for (const Index t : subset_b) {
     const Aabb& box = b.boxes[t];
     if (box.empty()) continue;
-    region.extend(box);
+    extent.extend(box.intersection(clip));
     size_sum += (box.hi - box.lo).sum() / 3.0;
     ++count;
   }
@@ -382,17 +385,17 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
     size_sum += (box.hi - box.lo).sum() / 3.0;
     ++count;
   }
-  if (region.empty() || count == 0) return;
-  // Cells are counted from region.lo (so coordinates are small and non-negative) and
-  // clamped into B's region, which loses nothing: no tet of B lies outside it.
+  if (extent.empty() || count == 0) return;
+  // Cells are counted from extent.lo (so coordinates are small and non-negative) and
+  // clamped into B's extent, which loses nothing: no (clipped) box of B lies outside it.
   Lattice lat;
   double h = size_sum / double(count);
   const double max_entries = 8.0 * double(subset_b.size()) + 1024.0;
   for (int iter = 0;; ++iter) {
-    size_lattice(lat, region, h, 1e15);
+    size_lattice(lat, extent, h, 1e15);
     double entries = 0.0;
     for (const Index t : subset_b) {
-      const Aabb& box = b.boxes[t];
+      const Aabb box = b.boxes[t].intersection(clip);
       if (box.empty()) continue;
       const auto lo = lat.low(box), hi = lat.high(box);
       entries += double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
@@ -404,11 +407,8 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
   entries_.clear();
   low_b_.resize(subset_b.size());
   for (std::size_t k = 0; k < subset_b.size(); ++k) {
-    const Aabb& box = b.boxes[subset_b[k]];
-    if (box.empty()) {
-      low_b_[k] = {-1, -1, -1};
-      continue;
-    }
+    const Aabb box = b.boxes[subset_b[k]].intersection(clip);
+    if (box.empty()) continue;
     const auto lo = lat.low(box), hi = lat.high(box);
     low_b_[k] = lo;
     for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
@@ -434,8 +434,8 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
         std::vector<TetPair>& part = parts_[chunk];
         for (std::size_t i = begin; i < end; ++i) {
           const Index ta = subset_a[i];
-          const Aabb& box = a.boxes[ta];
-          if (!box.overlaps(region)) continue;
+          const Aabb box = a.boxes[ta].intersection(clip);
+          if (!box.overlaps(extent)) continue;
           const auto lo = lat.low(box), hi = lat.high(box);
           const std::size_t start = part.size();
           for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
@@ -459,8 +459,8 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
 }
 
 void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                           std::span<const Index> subset_b) {
-  // Sweep axis: the one along which the box centres spread most.
+                           std::span<const Index> subset_b, const Aabb& clip) {
+  // Sweep axis: the one along which the (clipped) box centres spread most.
   Vector3d sum = Vector3d::Zero(), sum2 = Vector3d::Zero();
   std::size_t count = 0;
   const auto add = [&](const Aabb& box) {
@@ -470,8 +470,8 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
     sum2 += c.cwiseProduct(c);
     ++count;
   };
-  for (const Index t : subset_a) add(a.boxes[t]);
-  for (const Index t : subset_b) add(b.boxes[t]);
+  for (const Index t : subset_a) add(a.boxes[t].intersection(clip));
+  for (const Index t : subset_b) add(b.boxes[t].intersection(clip));
   if (count == 0) return;
   const Vector3d mean = sum / double(count);
   const Vector3d var = sum2 / double(count) - mean.cwiseProduct(mean);
@@ -482,7 +482,7 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
   sorted_b_.clear();
   double max_len = 0.0;
   for (const Index t : subset_b) {
-    const Aabb& box = b.boxes[t];
+    const Aabb box = b.boxes[t].intersection(clip);
     if (box.empty()) continue;
     sorted_b_.emplace_back(box.lo[axis], t);
     max_len = std::max(max_len, box.hi[axis] - box.lo[axis]);
@@ -497,9 +497,10 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
         std::vector<TetPair>& part = parts_[chunk];
         for (std::size_t i = begin; i < end; ++i) {
           const Index ta = subset_a[i];
-          const Aabb& box = a.boxes[ta];
+          const Aabb box = a.boxes[ta].intersection(clip);
           if (box.empty()) continue;
-          // B boxes starting in [lo_a - max_len, hi_a] are the only ones that can reach A's.
+          // Clipped B boxes starting in [lo_a - max_len, hi_a] are the only ones that can
+          // reach A's.
           const auto first = std::lower_bound(
               sorted_b_.begin(), sorted_b_.end(), box.lo[axis] - max_len,
               [](const std::pair<double, Index>& e, double v) { return e.first < v; });
@@ -512,7 +513,7 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
 }
 
 void BroadPhase::bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                           const AabbTree& tree_b) {
+                           const AabbTree& tree_b, const Aabb& clip) {
   detail::for_chunks(subset_a.size(), kQueryChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t chunk) {
                        std::vector<TetPair>& part = parts_[chunk];
@@ -520,7 +521,7 @@ void BroadPhase::bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, 
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index ta = subset_a[i];
                          found.clear();
-                         tree_b.query(a.boxes[ta], b.boxes, found);
+                         tree_b.query(a.boxes[ta].intersection(clip), b.boxes, found);
                          std::sort(found.begin(), found.end());
                          for (const Index tb : found) part.push_back({ta, tb});
                        }

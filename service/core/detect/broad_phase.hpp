@@ -40,9 +40,10 @@ struct Aabb {
   Eigen::Vector3d hi = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
 
   [[nodiscard]] bool empty() const { return !(lo.array() <= hi.array()).all(); }
-  /// Closed overlap test (touching boxes overlap); false when either box is empty.
+  /// Closed overlap test (touching boxes overlap): the intersection is not empty. False
+  /// when either box is empty.
   [[nodiscard]] bool overlaps(const Aabb& o) const {
-    return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all();
+    return (lo.cwiseMax(o.lo).array() <= hi.cwiseMin(o.hi).array()).all();
   }
   void extend(const Eigen::Vector3d& p) {
     lo = lo.cwiseMin(p);
@@ -66,12 +67,12 @@ struct BoundingSphere {
 /// Per-frame bounds of every tet of one object.
 struct TetBounds {
   std::vector<Aabb> boxes;              ///< m boxes (empty for non-finite tets)
-  std::vector<BoundingSphere> spheres;  ///< m spheres
+  std::vector<BoundingSphere> spheres;  ///< m spheres (empty when not computed)
 
-  /// Recomputes the bounds (TBB over tets).
+  /// Recomputes the boxes, and the spheres when `spheres` is set (TBB over tets).
   /// @param[in] positions  3 x n node positions, metres.
   /// @param[in] tets       m tets, indices in [0, n).
-  void compute(const Positions& positions, std::span<const Tet> tets);
+  void compute(const Positions& positions, std::span<const Tet> tets, bool spheres = true);
 };
 
 /// AABB tree over the tets of one object: the shape is built once per topology (median
@@ -109,28 +110,32 @@ class AabbTree {
 class BroadPhase {
  public:
   /// Candidate pairs (a, b) with a in `subset_a` and b in `subset_b` whose boxes overlap
-  /// (kGrid: whose bounding spheres overlap too). Sorted by (a, b), no duplicates.
+  /// inside `clip` (kGrid: whose bounding spheres overlap too). Sorted by (a, b), no
+  /// duplicates. With `clip` = the intersection of the two object boxes this is every
+  /// pair of overlapping boxes (two boxes of the objects overlap only inside it), and
+  /// the spatial structures only see the clipped boxes, which are much smaller where
+  /// the objects barely touch.
   ///
   /// @param[in] kind      method
-  /// @param[in] a, b      per-tet bounds of the two objects (this frame)
+  /// @param[in] a, b      per-tet bounds of the two objects (this frame; kGrid: spheres)
   /// @param[in] subset_a  tets of A to consider, sorted (e.g. those in the overlap box)
-  /// @param[in] subset_b  tets of B to consider, sorted (kBvh: ignored, `tree_b` is used;
-  ///                      pass the tets of B whose boxes meet A's object box)
+  /// @param[in] subset_b  tets of B to consider, sorted (kBvh: ignored, `tree_b` is used)
   /// @param[in] tree_b    the refitted tree of B; required for kBvh, else unused
+  /// @param[in] clip      the region pairs must overlap in (metres)
   /// @param[out] out      the candidate pairs (cleared first)
   void find_pairs(BroadPhaseKind kind, const TetBounds& a, std::span<const Index> subset_a,
                   const TetBounds& b, std::span<const Index> subset_b, const AabbTree* tree_b,
-                  std::vector<TetPair>& out);
+                  const Aabb& clip, std::vector<TetPair>& out);
 
  private:
   void grid_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                  std::span<const Index> subset_b);
+                  std::span<const Index> subset_b, const Aabb& clip);
   void hash_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                  std::span<const Index> subset_b);
+                  std::span<const Index> subset_b, const Aabb& clip);
   void sap_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                 std::span<const Index> subset_b);
+                 std::span<const Index> subset_b, const Aabb& clip);
   void bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                 const AabbTree& tree_b);
+                 const AabbTree& tree_b, const Aabb& clip);
 
   // Buffers kept across calls.
   std::vector<std::vector<TetPair>> parts_;           ///< per fixed chunk of subset_a

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -115,9 +116,11 @@ void CollisionBody::set_positions(const Positions& positions) {
 void CollisionBody::prepare(BroadPhaseKind kind) {
   if (positions_ == nullptr)
     throw std::logic_error("CollisionBody::prepare: set_positions() was not called");
-  if (!bounds_ready_) {
-    bounds_.compute(*positions_, tets_);
+  const bool spheres = kind == BroadPhaseKind::kGrid;
+  if (!bounds_ready_ || (spheres && !spheres_ready_)) {
+    bounds_.compute(*positions_, tets_, spheres);
     bounds_ready_ = true;
+    spheres_ready_ = spheres;
   }
   if (kind == BroadPhaseKind::kBvh && !tree_ready_) {
     if (!tree_built_) {
@@ -133,6 +136,21 @@ void CollisionBody::prepare(BroadPhaseKind kind) {
 // ----------------------------------------------------------------------------- Detector
 
 Detector::Detector(DetectOptions options) : options_(options) {}
+
+void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
+  if (g.slot.size() < body.tets_.size()) g.slot.resize(body.tets_.size(), -1);
+  g.geom.resize(g.tets.size());
+  for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
+  const Positions& p = *body.positions_;
+  detail::for_chunks(g.tets.size(), 512, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i)
+      g.geom[i] = make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]));
+  });
+}
+
+void Detector::clear_slots(Geometry& g) {
+  for (const Index t : g.tets) g.slot[t] = -1;
+}
 
 void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats) {
   const auto start = Clock::now();
@@ -157,6 +175,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   const BroadPhaseKind kind = options_.broad_phase;
   a.prepare(kind);
   b.prepare(kind);
+  st.bounds_ms = ms_since(start);
 
   // Tets whose box meets the overlap box of the two objects: the only ones that can
   // overlap anything of the other object.
@@ -177,14 +196,28 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   st.tets_a_in_box = subset_a_.size();
   st.tets_b_in_box = subset_b_.size();
 
-  broad_.find_pairs(kind, a.bounds_, subset_a_, b.bounds_, subset_b_, &b.tree_, candidates_);
+  broad_.find_pairs(kind, a.bounds_, subset_a_, b.bounds_, subset_b_, &b.tree_, cull, candidates_);
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();
   st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();
 
+  // Geometry of the tets in candidate pairs, once per tet.
+  geom_a_.tets.clear();
+  for (const TetPair& p : candidates_)
+    if (geom_a_.tets.empty() || geom_a_.tets.back() != p.tet_a) geom_a_.tets.push_back(p.tet_a);
+  if (seen_.size() < b.tets_.size()) seen_.resize(b.tets_.size(), 0);
+  geom_b_.tets.clear();
+  for (const TetPair& p : candidates_)
+    if (!seen_[p.tet_b]) {
+      seen_[p.tet_b] = 1;
+      geom_b_.tets.push_back(p.tet_b);
+    }
+  for (const Index t : geom_b_.tets) seen_[t] = 0;
+  sort_values(geom_b_.tets);
+  build_geometry(a, geom_a_);
+  build_geometry(b, geom_b_);
+
   // Narrow phase: exact overlap of every candidate, in candidate order.
-  const Positions& pa = *a.positions_;
-  const Positions& pb = *b.positions_;
   const double rel = options_.relative_tolerance;
   {
     const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
@@ -193,9 +226,9 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
                        [&](std::size_t begin, std::size_t end, std::size_t c) {
                          for (std::size_t i = begin; i < end; ++i) {
                            const TetPair& p = candidates_[i];
-                           const TetCorners ca = tet_corners(pa, a.tets_[p.tet_a]);
-                           const TetCorners cb = tet_corners(pb, b.tets_[p.tet_b]);
-                           if (tets_overlap(ca, cb, rel * pair_scale(ca, cb)))
+                           const TetGeometry& ga = geom_a_.geom[geom_a_.slot[p.tet_a]];
+                           const TetGeometry& gb = geom_b_.geom[geom_b_.slot[p.tet_b]];
+                           if (tets_overlap(ga, gb, rel * pair_scale(ga, gb)))
                              pair_parts_[c].push_back(p);
                          }
                        });
@@ -233,89 +266,122 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   }
   rows_b_.offsets.push_back(static_cast<Index>(keys_.size()));
 
+  const auto intrusion_start = Clock::now();
   if (!out.overlapping.empty() && (options_.intruding_nodes || options_.intruding_edges)) {
     for (int side = 0; side < 2; ++side) {
       const CollisionBody& x = side == 0 ? a : b;
       const CollisionBody& y = side == 0 ? b : a;
+      const Geometry& gy = side == 0 ? geom_b_ : geom_a_;
       const std::vector<Index>& marked = side == 0 ? out.marked_a : out.marked_b;
       const Rows& rows = side == 0 ? rows_a_ : rows_b_;
-      mark(x, marked);
+      if (row_of_.size() < x.tets_.size()) row_of_.resize(x.tets_.size(), -1);
+      for (std::size_t r = 0; r < marked.size(); ++r) row_of_[marked[r]] = static_cast<Index>(r);
       if (options_.intruding_nodes)
-        intruding_nodes(x, marked, rows, y, side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
+        intruding_nodes(x, marked, rows, y, gy, side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
       if (options_.intruding_edges)
-        intruding_edges(x, marked, rows, y, side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
-      unmark(marked);
+        intruding_edges(x, marked, rows, y, gy, side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
+      for (const Index t : marked) row_of_[t] = -1;
     }
   }
+  clear_slots(geom_a_);
+  clear_slots(geom_b_);
+  st.intrusion_ms = ms_since(intrusion_start);
 
   st.narrow_ms = ms_since(broad_end);
   st.total_ms = ms_since(start);
   if (stats != nullptr) *stats = st;
 }
 
-void Detector::mark(const CollisionBody& x, std::span<const Index> marked) {
-  if (row_of_.size() < x.tets_.size()) row_of_.resize(x.tets_.size(), -1);
-  for (std::size_t r = 0; r < marked.size(); ++r) row_of_[marked[r]] = static_cast<Index>(r);
+void Detector::collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges) {
+  // The nodes (or edges) of the marked tets of X, each once, sorted.
+  const std::size_t count = edges ? x.edges_.size() : static_cast<std::size_t>(x.num_nodes_);
+  if (seen_.size() < count) seen_.resize(count, 0);
+  features_.clear();
+  const auto add = [&](Index f) {
+    if (!seen_[f]) {
+      seen_[f] = 1;
+      features_.push_back(f);
+    }
+  };
+  for (const Index t : marked) {
+    if (edges) {
+      for (const Index e : x.tet_edges_[t]) add(e);
+    } else {
+      for (const Index v : x.tets_[t]) add(v);
+    }
+  }
+  for (const Index f : features_) seen_[f] = 0;
+  sort_values(features_);
 }
 
-void Detector::unmark(std::span<const Index> marked) {
-  for (const Index t : marked) row_of_[t] = -1;
+namespace {
+
+/// The tets of Y overlapped by the marked tets of X among `owners`, sorted, unique.
+template <typename Rows>
+void gather_near(std::span<const Index> owners, const std::vector<Index>& row_of, const Rows& rows,
+                 std::vector<Index>& near) {
+  near.clear();
+  for (const Index t : owners) {
+    const Index r = row_of[t];
+    if (r < 0) continue;
+    near.insert(near.end(), rows.items.begin() + rows.offsets[r],
+                rows.items.begin() + rows.offsets[r + 1]);
+  }
+  std::sort(near.begin(), near.end());
+  near.erase(std::unique(near.begin(), near.end()), near.end());
 }
+
+}  // namespace
 
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
-                               const Rows& rows, const CollisionBody& y,
+                               const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingNode>& out) {
-  // Candidate nodes: the nodes of the marked tets of X.
-  features_.clear();
-  for (const Index t : marked)
-    for (const Index v : x.tets_[t]) features_.push_back(v);
-  sort_unique(features_);
-
+  collect_features(marked, x, false);
   const Positions& px = *x.positions_;
-  const Positions& py = *y.positions_;
   const double rel = options_.relative_tolerance;
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(node_parts_, chunks);
   detail::for_chunks(features_.size(), kFeatureChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t c) {
-                       std::vector<Index> near;
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index node = features_[i];
-                         // Tets of Y overlapped by some marked tet of X around the node.
-                         near.clear();
+                         const Eigen::Vector3d p = px.col(node);
+                         // The first tet of Y (in tet order) containing the node, among the tets
+                         // overlapped by the marked tets around it. Rows repeat tets; no need to
+                         // sort them: a tet not before the best found so far is skipped.
+                         Index best = std::numeric_limits<Index>::max();
+                         Eigen::Vector4d bary = Eigen::Vector4d::Zero();
                          for (const Index t : x.node_tets_.row(node)) {
                            const Index r = row_of_[t];
                            if (r < 0) continue;
-                           near.insert(near.end(), rows.items.begin() + rows.offsets[r],
-                                       rows.items.begin() + rows.offsets[r + 1]);
-                         }
-                         std::sort(near.begin(), near.end());
-                         near.erase(std::unique(near.begin(), near.end()), near.end());
-                         const Eigen::Vector3d p = px.col(node);
-                         for (const Index ty : near) {
-                           const TetCorners ct = tet_corners(py, y.tets_[ty]);
-                           const PointInTet hit = point_in_tet(p, ct, rel * tet_scale(ct));
-                           if (hit.inside) {
-                             node_parts_[c].push_back({node, ty, hit.bary});
-                             break;  // first containing tet in tet order
+                           for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
+                             const Index ty = rows.items[k];
+                             if (ty >= best) break;  // rows are sorted
+                             const TetGeometry& g = gy.geom[gy.slot[ty]];
+                             const double tol = rel * g.scale;
+                             if (!((p.array() >= g.lo.array() - tol).all() &&
+                                   (p.array() <= g.hi.array() + tol).all()))
+                               continue;
+                             const PointInTet hit = point_in_tet(p, g, tol);
+                             if (hit.inside) {
+                               best = ty;
+                               bary = hit.bary;
+                               break;
+                             }
                            }
                          }
+                         if (best != std::numeric_limits<Index>::max())
+                           node_parts_[c].push_back({node, best, bary});
                        }
                      });
   detail::concat_parts(node_parts_, chunks, out);
 }
 
 void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
-                               const Rows& rows, const CollisionBody& y,
+                               const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingEdge>& out) {
-  // Candidate edges: the edges of the marked tets of X.
-  features_.clear();
-  for (const Index t : marked)
-    for (const Index e : x.tet_edges_[t]) features_.push_back(e);
-  sort_unique(features_);
-
+  collect_features(marked, x, true);
   const Positions& px = *x.positions_;
-  const Positions& py = *y.positions_;
   const double rel = options_.relative_tolerance;
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(edge_parts_, chunks);
@@ -325,23 +391,19 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
                        std::vector<IntrudingEdge>& part = edge_parts_[c];
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index edge = features_[i];
-                         near.clear();
-                         for (const Index t : x.edge_tets_.row(edge)) {
-                           const Index r = row_of_[t];
-                           if (r < 0) continue;
-                           near.insert(near.end(), rows.items.begin() + rows.offsets[r],
-                                       rows.items.begin() + rows.offsets[r + 1]);
-                         }
-                         std::sort(near.begin(), near.end());
-                         near.erase(std::unique(near.begin(), near.end()), near.end());
+                         gather_near(x.edge_tets_.row(edge), row_of_, rows, near);
                          const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
                          const Eigen::Vector3d p1 = px.col(x.edges_[edge][1]);
+                         const Eigen::Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
                          const double length = (p1 - p0).norm();
                          const std::size_t first = part.size();
                          for (const Index ty : near) {
-                           const TetCorners ct = tet_corners(py, y.tets_[ty]);
-                           const double tol = rel * std::max(tet_scale(ct), length);
-                           const SegmentClip clip = clip_segment_tet(p0, p1, ct, tol);
+                           const TetGeometry& g = gy.geom[gy.slot[ty]];
+                           const double tol = rel * std::max(g.scale, length);
+                           if (!((lo.array() <= g.hi.array() + tol).all() &&
+                                 (hi.array() >= g.lo.array() - tol).all()))
+                             continue;
+                           const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
                            if (!clip.hit) continue;
                            // An edge lying in a face (or along an edge) shared by several tets of Y
                            // is inside each of them over the same interval: keep the first tet

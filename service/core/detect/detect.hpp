@@ -48,6 +48,9 @@ struct DetectStats {
   double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
   double narrow_ms = 0.0;         ///< exact overlap tests, marked tets, intrusions
   double total_ms = 0.0;
+  // Finer split, included in the above.
+  double bounds_ms = 0.0;     ///< tet bounds and tree refit (prepare), part of broad_ms
+  double intrusion_ms = 0.0;  ///< intruding nodes and edges, part of narrow_ms
 };
 
 /// One object as detection sees it: its topology-derived tables (built once, in the
@@ -92,6 +95,7 @@ class CollisionBody {
   Aabb box_;
   TetBounds bounds_;
   bool bounds_ready_ = false;
+  bool spheres_ready_ = false;
   AabbTree tree_;
   bool tree_built_ = false;
   bool tree_ready_ = false;
@@ -121,12 +125,19 @@ class Detector {
     std::vector<Index> offsets;
     std::vector<Index> items;
   };
-  void mark(const CollisionBody& x, std::span<const Index> marked);
-  void unmark(std::span<const Index> marked);
+  /// Derived geometry of the tets of one body that appear in candidate pairs.
+  struct Geometry {
+    std::vector<Index> tets;        ///< sorted
+    std::vector<TetGeometry> geom;  ///< one per entry of tets
+    std::vector<Index> slot;        ///< scratch, per tet of the body: index or -1
+  };
+  void build_geometry(const CollisionBody& body, Geometry& g);
+  static void clear_slots(Geometry& g);
   void intruding_nodes(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
-                       const CollisionBody& y, std::vector<IntrudingNode>& out);
+                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingNode>& out);
   void intruding_edges(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
-                       const CollisionBody& y, std::vector<IntrudingEdge>& out);
+                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingEdge>& out);
+  void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
 
   DetectOptions options_;
   BroadPhase broad_;
@@ -134,9 +145,11 @@ class Detector {
   std::vector<std::vector<Index>> index_parts_;
   std::vector<TetPair> candidates_;
   std::vector<std::vector<TetPair>> pair_parts_;
+  Geometry geom_a_, geom_b_;
   std::vector<std::uint64_t> keys_;
   Rows rows_a_, rows_b_;
-  std::vector<Index> row_of_;  ///< scratch: tet of X -> its row, or -1
+  std::vector<Index> row_of_;       ///< scratch: tet of X -> its row, or -1
+  std::vector<std::uint8_t> seen_;  ///< scratch: feature flags
   std::vector<Index> features_;
   std::vector<std::vector<IntrudingNode>> node_parts_;
   std::vector<std::vector<IntrudingEdge>> edge_parts_;

@@ -29,9 +29,29 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
           positions.col(tet[3])};
 }
 
+/// A tet with the derived geometry the tests below use, computed once per tet and frame
+/// so that a tet tested against many others does not redo it.
+struct TetGeometry {
+  TetCorners v;                      ///< corners, metres
+  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order
+  std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
+                                     ///< outward unless flat
+  std::array<double, 6> e2;          ///< squared edge lengths
+  std::array<double, 4> n_len;       ///< |n|
+  Eigen::Vector3d lo, hi;            ///< bounding box
+  double scale = 0.0;                ///< largest box extent
+  bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
+};
+
+/// Derived geometry of a tet given by its corners.
+TetGeometry make_tet_geometry(const TetCorners& t);
+
 /// Largest extent of the bounding box of the corners of `a` and `b` (metres): the length
 /// scale the tolerance of a tet pair is relative to.
 double pair_scale(const TetCorners& a, const TetCorners& b);
+inline double pair_scale(const TetGeometry& a, const TetGeometry& b) {
+  return (a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo)).maxCoeff();
+}
 
 /// Largest extent of the bounding box of a tet's corners (metres).
 double tet_scale(const TetCorners& t);
@@ -47,9 +67,11 @@ double tet_scale(const TetCorners& t);
 double sat_penetration(const TetCorners& a, const TetCorners& b);
 
 /// True when the tets penetrate by more than `tolerance` (metres, >= 0): the same as
-/// sat_penetration(a, b) > tolerance, with early exits. Shared faces, coplanar faces on
+/// sat_penetration(a, b) > tolerance, with early exits (a separating axis, or a corner of
+/// one tet deeper than `tolerance` inside the other). Shared faces, coplanar faces on
 /// opposite sides, and touching vertices or edges are not overlaps. A zero-volume tet
 /// lying inside the other one is an overlap (it has to move to get out).
+bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance);
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance);
 
 /// Result of point_in_tet().
@@ -61,9 +83,9 @@ struct PointInTet {
 };
 
 /// Closed point-in-tet test: p is inside when its distance outside each face plane is at
-/// most `tolerance` (metres). A point on a face shared by two tets is inside both. Tets
-/// flat up to rounding (6|V| <= 32 eps L^3, L = tet_scale) contain no point. Works for
-/// either orientation of the tet.
+/// most `tolerance` (metres). A point on a face shared by two tets is inside both. Flat
+/// tets (TetGeometry::flat) contain no point. Works for either orientation of the tet.
+PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double tolerance);
 PointInTet point_in_tet(const Eigen::Vector3d& p, const TetCorners& t, double tolerance);
 
 /// Result of clip_segment_tet().
@@ -79,7 +101,9 @@ struct SegmentClip {
 /// Endpoint distances within `tolerance` (metres) of a plane count as on it, so a segment
 /// lying in a face is inside. A hit needs an inside part longer than `tolerance`:
 /// segments that only touch a corner or an edge of the tet do not hit. Zero-length
-/// segments and tets flat up to rounding never hit.
+/// segments and flat tets never hit.
+SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                             const TetGeometry& t, double tolerance);
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                              const TetCorners& t, double tolerance);
 
