@@ -95,6 +95,10 @@ void run_frames(benchmark::State& state, const Object* a, const Object* b,
   Detector detector(options);
   PairContacts contacts;
   DetectStats stats;
+  // One untimed frame: builds the per-topology AABB trees (kBvh), sizes the buffers.
+  body_a.set_positions(a->mesh.positions);
+  body_b.set_positions(pb);
+  detector.detect(body_a, body_b, contacts, &stats);
   double broad = 0.0, narrow = 0.0, bounds = 0.0, intrusion = 0.0;
   for (auto _ : state) {
     body_a.set_positions(a->mesh.positions);

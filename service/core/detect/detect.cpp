@@ -314,25 +314,6 @@ void Detector::collect_features(std::span<const Index> marked, const CollisionBo
   sort_values(features_);
 }
 
-namespace {
-
-/// The tets of Y overlapped by the marked tets of X among `owners`, sorted, unique.
-template <typename Rows>
-void gather_near(std::span<const Index> owners, const std::vector<Index>& row_of, const Rows& rows,
-                 std::vector<Index>& near) {
-  near.clear();
-  for (const Index t : owners) {
-    const Index r = row_of[t];
-    if (r < 0) continue;
-    near.insert(near.end(), rows.items.begin() + rows.offsets[r],
-                rows.items.begin() + rows.offsets[r + 1]);
-  }
-  std::sort(near.begin(), near.end());
-  near.erase(std::unique(near.begin(), near.end()), near.end());
-}
-
-}  // namespace
-
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingNode>& out) {
@@ -377,6 +358,24 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
   detail::concat_parts(node_parts_, chunks, out);
 }
 
+namespace {
+
+/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
+/// through another tet of X around the same edge is skipped. Only used for dedup, so
+/// the output does not depend on which thread ran what.
+struct VisitMarks {
+  std::vector<std::uint64_t> mark;
+  std::uint64_t now = 0;
+};
+thread_local VisitMarks t_marks;
+
+struct EdgeHit {
+  IntrudingEdge edge;
+  double dl;  ///< tolerance in lambda units
+};
+
+}  // namespace
+
 void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingEdge>& out) {
@@ -385,39 +384,54 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
   const double rel = options_.relative_tolerance;
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(edge_parts_, chunks);
-  detail::for_chunks(features_.size(), kFeatureChunk,
-                     [&](std::size_t begin, std::size_t end, std::size_t c) {
-                       std::vector<Index> near;
-                       std::vector<IntrudingEdge>& part = edge_parts_[c];
-                       for (std::size_t i = begin; i < end; ++i) {
-                         const Index edge = features_[i];
-                         gather_near(x.edge_tets_.row(edge), row_of_, rows, near);
-                         const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
-                         const Eigen::Vector3d p1 = px.col(x.edges_[edge][1]);
-                         const Eigen::Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
-                         const double length = (p1 - p0).norm();
-                         const std::size_t first = part.size();
-                         for (const Index ty : near) {
-                           const TetGeometry& g = gy.geom[gy.slot[ty]];
-                           const double tol = rel * std::max(g.scale, length);
-                           if (!((lo.array() <= g.hi.array() + tol).all() &&
-                                 (hi.array() >= g.lo.array() - tol).all()))
-                             continue;
-                           const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
-                           if (!clip.hit) continue;
-                           // An edge lying in a face (or along an edge) shared by several tets of Y
-                           // is inside each of them over the same interval: keep the first tet
-                           // only, so the response does not count that stretch twice.
-                           const double dl = tol / length;
-                           bool repeated = false;
-                           for (std::size_t k = first; k < part.size() && !repeated; ++k)
-                             repeated = std::abs(part[k].lambda_in - clip.lambda_in) <= dl &&
-                                        std::abs(part[k].lambda_out - clip.lambda_out) <= dl;
-                           if (!repeated)
-                             part.push_back({edge, ty, clip.lambda_in, clip.lambda_out});
-                         }
-                       }
-                     });
+  detail::for_chunks(
+      features_.size(), kFeatureChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+        VisitMarks& marks = t_marks;
+        if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
+        std::vector<EdgeHit> hits;
+        std::vector<IntrudingEdge>& part = edge_parts_[c];
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index edge = features_[i];
+          const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
+          const Eigen::Vector3d p1 = px.col(x.edges_[edge][1]);
+          const Eigen::Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
+          const double length = (p1 - p0).norm();
+          const std::uint64_t now = ++marks.now;
+          hits.clear();
+          // Every tet of Y overlapped by a marked tet of X around the edge, once.
+          for (const Index t : x.edge_tets_.row(edge)) {
+            const Index r = row_of_[t];
+            if (r < 0) continue;
+            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
+              const Index ty = rows.items[k];
+              const Index slot = gy.slot[ty];
+              if (marks.mark[slot] == now) continue;
+              marks.mark[slot] = now;
+              const TetGeometry& g = gy.geom[slot];
+              const double tol = rel * std::max(g.scale, length);
+              if (!((lo.array() <= g.hi.array() + tol).all() &&
+                    (hi.array() >= g.lo.array() - tol).all()))
+                continue;
+              const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
+              if (clip.hit)
+                hits.push_back({{edge, ty, clip.lambda_in, clip.lambda_out}, tol / length});
+            }
+          }
+          std::sort(hits.begin(), hits.end(),
+                    [](const EdgeHit& u, const EdgeHit& v) { return u.edge.tet < v.edge.tet; });
+          const std::size_t first = part.size();
+          for (const EdgeHit& h : hits) {
+            // An edge lying in a face (or along an edge) shared by several tets of Y is
+            // inside each of them over the same interval: keep the first tet only, so the
+            // response does not count that stretch twice.
+            bool repeated = false;
+            for (std::size_t k = first; k < part.size() && !repeated; ++k)
+              repeated = std::abs(part[k].lambda_in - h.edge.lambda_in) <= h.dl &&
+                         std::abs(part[k].lambda_out - h.edge.lambda_out) <= h.dl;
+            if (!repeated) part.push_back(h.edge);
+          }
+        }
+      });
   detail::concat_parts(edge_parts_, chunks, out);
 }
 

@@ -19,6 +19,34 @@ constexpr double kFlat = 32.0 * kEps;
 /// is still tested, and so is the offset direction between their lines.
 constexpr double kParallelSin = 1e-12;
 
+/// The two faces adjacent to each edge (kTetEdges order): the faces opposite the two
+/// corners the edge does not use.
+constexpr int kEdgeFaces[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+/// Gauss-map arc tests closer to zero than this count as "may intersect".
+constexpr double kArcEps = 1e-9;
+
+/// True when the Gauss-map arcs of an edge of A and an edge of -B certainly do not
+/// cross, i.e. the edge pair spans no face of the Minkowski difference A - B, so its
+/// cross product cannot be the separating (or the penetration-depth) axis. s1, s2: the
+/// normals of -B's edge against A's arc plane; s3, s4: A's normals against -B's.
+inline bool arcs_disjoint(double s1, double s2, double s3, double s4) {
+  const auto clear = [](double u, double v) {
+    return std::abs(u) > kArcEps && std::abs(v) > kArcEps;
+  };
+  return (s1 * s2 > 0.0 && clear(s1, s2)) || (s3 * s4 > 0.0 && clear(s3, s4)) ||
+         (s1 * s4 < 0.0 && clear(s1, s4));
+}
+
+/// Scalar dot and cross products: Eigen's packet code for unaligned 3-vectors spends
+/// more time shuffling than multiplying in these small hot loops.
+inline double dot3(const Vector3d& a, const Vector3d& b) {
+  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
+}
+inline Vector3d cross3(const Vector3d& a, const Vector3d& b) {
+  return {a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(),
+          a.x() * b.y() - a.y() * b.x()};
+}
+
 /// Any direction perpendicular to a non-zero e.
 Vector3d any_perpendicular(const Vector3d& e) {
   const Vector3d a = e.cwiseAbs();
@@ -33,7 +61,7 @@ Vector3d any_perpendicular(const Vector3d& e) {
 }
 
 inline void project(const Vector3d (&v)[4], const Vector3d& n, double& lo, double& hi) {
-  const double p0 = n.dot(v[0]), p1 = n.dot(v[1]), p2 = n.dot(v[2]), p3 = n.dot(v[3]);
+  const double p0 = dot3(n, v[0]), p1 = dot3(n, v[1]), p2 = dot3(n, v[2]), p3 = dot3(n, v[3]);
   lo = std::min(std::min(p0, p1), std::min(p2, p3));
   hi = std::max(std::max(p0, p1), std::max(p2, p3));
 }
@@ -62,10 +90,34 @@ class Sat {
     const bool b_first = gb_.scale > ga_.scale;
     if (b_first ? faces(gb_, b_, a_) : faces(ga_, a_, b_)) return kEarly ? accepted_ : false;
     if (b_first ? faces(ga_, a_, b_) : faces(gb_, b_, a_)) return kEarly ? accepted_ : false;
+    if (!ga_.flat && !gb_.flat) {
+      // Only edge pairs whose Gauss-map arcs cross span faces of the Minkowski
+      // difference; the other cross products can neither separate the tets when these
+      // do not, nor give a smaller penetration (Gregorius, GDC 2013).
+      double da[4][6], db[4][6];  // da[f][j] = unit normal f of A . arc j of B
+      for (int f = 0; f < 4; ++f) {
+        const Vector3d ua = ga_.n[f] * ga_.n_inv[f];
+        const Vector3d ub = gb_.n[f] * gb_.n_inv[f];
+        for (int k = 0; k < 6; ++k) {
+          da[f][k] = dot3(ua, gb_.arc[k]);
+          db[f][k] = dot3(ub, ga_.arc[k]);
+        }
+      }
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+          const double s1 = -db[kEdgeFaces[j][0]][i], s2 = -db[kEdgeFaces[j][1]][i];
+          const double s3 = da[kEdgeFaces[i][0]][j], s4 = da[kEdgeFaces[i][1]][j];
+          if (arcs_disjoint(s1, s2, s3, s4)) continue;
+          if (axis(cross3(ga_.e[i], gb_.e[j]))) return false;
+        }
+      return true;
+    }
+    // A flat tet has no proper Gauss map: every edge pair, with fallbacks for parallel
+    // and zero-length edges, and the centroid direction (the only axis left when both
+    // tets collapse to points).
     for (int i = 0; i < 6; ++i)
       for (int j = 0; j < 6; ++j)
         if (edge_pair(i, j)) return false;
-    // Centroid direction: the only axis left when both tets collapse to points.
     const Vector3d d = (b_[0] + b_[1] + b_[2] + b_[3]) - (a_[0] + a_[1] + a_[2] + a_[3]);
     return !axis(d);
   }
@@ -84,7 +136,7 @@ class Sat {
   }
 
   bool axis(const Vector3d& n) {
-    const double nn = n.squaredNorm();
+    const double nn = dot3(n, n);
     if (!(nn > 0.0) || !std::isfinite(nn)) return false;
     double alo, ahi, blo, bhi;
     project(a_, n, alo, ahi);
@@ -104,9 +156,9 @@ class Sat {
         deep[0] = deep[1] = deep[2] = deep[3] = false;
         continue;
       }
-      const double c = n.dot(f[kTetFaces[k][0]]);
-      const double opp = n.dot(f[k]);
-      const double p0 = n.dot(o[0]), p1 = n.dot(o[1]), p2 = n.dot(o[2]), p3 = n.dot(o[3]);
+      const double c = dot3(n, f[kTetFaces[k][0]]);
+      const double opp = dot3(n, f[k]);
+      const double p0 = dot3(n, o[0]), p1 = dot3(n, o[1]), p2 = dot3(n, o[2]), p3 = dot3(n, o[3]);
       const double olo = std::min(std::min(p0, p1), std::min(p2, p3));
       const double ohi = std::max(std::max(p0, p1), std::max(p2, p3));
       if (record(std::min(std::max(c, opp) - olo, ohi - std::min(c, opp)), len)) return true;
@@ -177,7 +229,12 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
     const auto& f = kTetFaces[k];
     g.n[k] = sign * (t[f[1]] - t[f[0]]).cross(t[f[2]] - t[f[0]]);
     g.n_len[k] = g.n[k].norm();
+    g.n_inv[k] = g.n_len[k] > 0.0 ? 1.0 / g.n_len[k] : 0.0;
     if (!(g.n_len[k] > 0.0) || !std::isfinite(g.n_len[k])) g.flat = true;
+  }
+  for (int k = 0; k < 6; ++k) {
+    const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+    g.arc[k] = (g.n[p] * g.n_inv[p]).cross(g.n[q] * g.n_inv[q]);
   }
   if (!(t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite())) {
     // An empty box: separated from everything on the first axis.
@@ -231,7 +288,7 @@ PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double t
   Eigen::Vector4d w;
   const double tol = std::max(tolerance, 0.0);
   for (int k = 0; k < 4; ++k) {
-    w[k] = -t.n[k].dot(p - t.v[kTetFaces[k][0]]);
+    w[k] = -dot3(t.n[k], p - t.v[kTetFaces[k][0]]);
     if (!(w[k] >= -tol * t.n_len[k])) return out;  // outside face k (or NaN)
   }
   const double total = w.sum();
@@ -255,8 +312,8 @@ SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p
   for (int k = 0; k < 4; ++k) {
     // Signed distances outside face k, metres; within tol of the plane counts as on it.
     const Vector3d& f = t.v[kTetFaces[k][0]];
-    double d0 = t.n[k].dot(p0 - f) / t.n_len[k];
-    double d1 = t.n[k].dot(p1 - f) / t.n_len[k];
+    double d0 = dot3(t.n[k], p0 - f) * t.n_inv[k];
+    double d1 = dot3(t.n[k], p1 - f) * t.n_inv[k];
     if (std::abs(d0) <= tol) d0 = 0.0;
     if (std::abs(d1) <= tol) d1 = 0.0;
     if (!(d0 <= 0.0 || d1 <= 0.0)) return out;  // both outside (or NaN)

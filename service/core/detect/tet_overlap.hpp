@@ -37,10 +37,14 @@ struct TetGeometry {
   std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
                                      ///< outward unless flat
   std::array<double, 6> e2;          ///< squared edge lengths
-  std::array<double, 4> n_len;       ///< |n|
-  Eigen::Vector3d lo, hi;            ///< bounding box
-  double scale = 0.0;                ///< largest box extent
-  bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
+  /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
+  /// the other), kTetEdges order; unused when flat.
+  std::array<Eigen::Vector3d, 6> arc;
+  std::array<double, 4> n_len;  ///< |n|
+  std::array<double, 4> n_inv;  ///< 1 / |n| (0 when |n| = 0)
+  Eigen::Vector3d lo, hi;       ///< bounding box
+  double scale = 0.0;           ///< largest box extent
+  bool flat = true;             ///< 6|V| <= 32 eps scale^3 (or non-finite)
 };
 
 /// Derived geometry of a tet given by its corners.
