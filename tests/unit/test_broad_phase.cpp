@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <random>
 #include <tuple>
 
@@ -45,15 +46,22 @@ bool sphere_overlap(const BoundingSphere& a, const BoundingSphere& b) {
   return a.radius >= 0 && b.radius >= 0 && (a.center - b.center).norm() <= a.radius + b.radius;
 }
 
-std::vector<TetPair> brute_force(BroadPhaseKind kind, const TetBounds& a,
-                                 std::span<const Index> subset_a, const TetBounds& b,
-                                 std::span<const Index> subset_b, const Aabb& clip) {
+/// Boxes of `tets` clipped to `clip` (empty when outside).
+std::vector<Aabb> clipped(const TetBounds& bounds, std::span<const Index> tets, const Aabb& clip) {
+  std::vector<Aabb> boxes;
+  for (const Index t : tets) boxes.push_back(bounds.boxes[t].intersection(clip));
+  return boxes;
+}
+
+std::vector<TetPair> brute_force(BroadPhaseKind kind, const TetBounds& a, std::span<const Index> sa,
+                                 std::span<const Aabb> ba, const TetBounds& b,
+                                 std::span<const Index> sb, std::span<const Aabb> bb) {
   std::vector<TetPair> out;
-  for (const Index ta : subset_a)
-    for (const Index tb : subset_b)
-      if (a.boxes[ta].intersection(clip).overlaps(b.boxes[tb]) &&
-          (kind != BroadPhaseKind::kGrid || sphere_overlap(a.spheres[ta], b.spheres[tb])))
-        out.push_back({ta, tb});
+  for (std::size_t i = 0; i < sa.size(); ++i)
+    for (std::size_t j = 0; j < sb.size(); ++j)
+      if (ba[i].overlaps(bb[j]) &&
+          (kind != BroadPhaseKind::kGrid || sphere_overlap(a.spheres[sa[i]], b.spheres[sb[j]])))
+        out.push_back({sa[i], sb[j]});
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -72,8 +80,8 @@ std::vector<Index> in_box(const TetBounds& bounds, const Aabb& box) {
   return v;
 }
 
-/// cull: restrict to the tets in the overlap box of the objects and clip to it (what
-/// detection does; it loses no pair). Else: every tet, clipped to `region`.
+/// cull: restrict to the tets in the overlap box of the objects and clip their boxes to
+/// it (what detection does, loosely). Else: every tet, boxes clipped to `region`.
 void expect_matches_brute_force(BroadPhaseKind kind, const TetMesh& ma, const TetMesh& mb,
                                 bool cull,
                                 const Aabb& region = {Vector3d::Constant(-1e300),
@@ -93,19 +101,20 @@ void expect_matches_brute_force(BroadPhaseKind kind, const TetMesh& ma, const Te
     sa = in_box(a, clip);
     sb = in_box(b, clip);
   }
+  const std::vector<Aabb> ba = clipped(a, sa, clip), bb = clipped(b, sb, clip);
   AabbTree tree;
   tree.build(b.boxes);
+  std::vector<Index> slot(b.boxes.size(), -1);
+  for (std::size_t k = 0; k < sb.size(); ++k) slot[sb[k]] = static_cast<Index>(k);
+  const BvhSide bvh{&tree, b.boxes, slot};
   BroadPhase bp;
   std::vector<TetPair> got;
-  bp.find_pairs(kind, a, sa, b, sb, &tree, clip, got);
-  // The tree covers every tet of B; with culling that loses nothing (a pair of
-  // overlapping boxes lies in both object boxes).
-  const std::vector<Index> sb_ref = kind == BroadPhaseKind::kBvh ? all_tets(mb) : sb;
-  const std::vector<TetPair> want = brute_force(kind, a, sa, b, sb_ref, clip);
+  bp.find_pairs(kind, {sa, ba, a.spheres}, {sb, bb, b.spheres}, bvh, got);
+  const std::vector<TetPair> want = brute_force(kind, a, sa, ba, b, sb, bb);
   EXPECT_EQ(got, want) << broad_phase_name(kind) << ": " << got.size() << " vs " << want.size();
   // Reuse of the buffers gives the same answer.
   std::vector<TetPair> again;
-  bp.find_pairs(kind, a, sa, b, sb, &tree, clip, again);
+  bp.find_pairs(kind, {sa, ba, a.spheres}, {sb, bb, b.spheres}, bvh, again);
   EXPECT_EQ(again, got);
 }
 
@@ -219,6 +228,64 @@ TEST(TetBounds, BoxesAndSpheresHoldTheCorners) {
       EXPECT_LE((p - b.spheres[t].center).norm(), b.spheres[t].radius);
     }
   }
+}
+
+TEST(ClippedTetBox, HoldsTheClippedTetAndNoMore) {
+  std::mt19937 rng(10);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int nonempty = 0;
+  for (int iter = 0; iter < 300; ++iter) {
+    TetCorners t;
+    for (auto& p : t) p = Vector3d(u(rng), u(rng), u(rng));
+    const int axis = iter % 3;
+    Vector3d lo = Vector3d::Constant(-0.2), hi = Vector3d::Constant(1.2);
+    lo[axis] = 0.8 * u(rng);
+    hi[axis] = lo[axis] + 0.1 * u(rng);
+    lo[(axis + 1) % 3] = 0.5 * u(rng);
+    const Aabb region{lo, hi};
+    const Aabb box = clipped_tet_box(t, region, axis, 0.0);
+    // Oracle: the vertices of tet x slab are the feasible intersections of three of its
+    // six planes (4 faces, 2 slab planes); their box, cut to the region, is the answer.
+    std::vector<std::pair<Vector3d, double>> planes;  // n . x <= c
+    for (int f = 0; f < 4; ++f) {
+      const Vector3d& p0 = t[(f + 1) % 4];
+      Vector3d nrm = (t[(f + 2) % 4] - p0).cross(t[(f + 3) % 4] - p0);
+      if (nrm.dot(t[f] - p0) > 0) nrm = -nrm;
+      planes.emplace_back(nrm, nrm.dot(p0));
+    }
+    planes.emplace_back(Vector3d::Unit(axis), hi[axis]);
+    planes.emplace_back(-Vector3d::Unit(axis), -lo[axis]);
+    Aabb want;
+    for (std::size_t i = 0; i < 6; ++i)
+      for (std::size_t j = i + 1; j < 6; ++j)
+        for (std::size_t k = j + 1; k < 6; ++k) {
+          Eigen::Matrix3d m;
+          m << planes[i].first.transpose(), planes[j].first.transpose(),
+              planes[k].first.transpose();
+          if (std::abs(m.determinant()) < 1e-12) continue;
+          const Vector3d x =
+              m.inverse() * Vector3d(planes[i].second, planes[j].second, planes[k].second);
+          bool inside = true;
+          for (const auto& [nrm, c] : planes) inside = inside && nrm.dot(x) <= c + 1e-9;
+          if (inside) want.extend(x);
+        }
+    want = want.intersection(region);
+    if (want.empty()) {
+      EXPECT_TRUE(box.empty() || (box.hi - box.lo).maxCoeff() < 1e-9) << iter;
+      continue;
+    }
+    ++nonempty;
+    ASSERT_FALSE(box.empty()) << iter;
+    EXPECT_LT((box.lo - want.lo).cwiseAbs().maxCoeff(), 1e-9) << iter;
+    EXPECT_LT((box.hi - want.hi).cwiseAbs().maxCoeff(), 1e-9) << iter;
+  }
+  EXPECT_GT(nonempty, 100);
+  // A tet beside the slab: empty; the pad grows the box.
+  const TetCorners t = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, 1)};
+  EXPECT_TRUE(clipped_tet_box(t, Aabb{Vector3d(-1, -1, 2), Vector3d(2, 2, 3)}, 2, 0.0).empty());
+  const Aabb padded = clipped_tet_box(t, Aabb{Vector3d(-1, -1, 0.5), Vector3d(2, 2, 0.6)}, 2, 0.01);
+  EXPECT_NEAR(padded.lo.z(), 0.49, 1e-12);
+  EXPECT_NEAR(padded.hi.x(), 0.51, 1e-12);
 }
 
 TEST(AabbTree, RefitAfterDeformationQueriesLikeBruteForce) {

@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "core/detect/chunked.hpp"
+#include "core/mesh/geometry.hpp"
 
 namespace tc {
 namespace {
@@ -72,11 +73,6 @@ void size_lattice(Lattice& lat, const Aabb& region, double h, double max_cells) 
   lat.h = h;
   for (int d = 0; d < 3; ++d)
     lat.dims[d] = static_cast<std::int64_t>(std::max(1.0, std::ceil(ext[d] / h)));
-}
-
-/// The box of a bounding sphere.
-Aabb sphere_box(const BoundingSphere& s) {
-  return {s.center.array() - s.radius, s.center.array() + s.radius};
 }
 
 /// Sorts each tet of A's run of pairs by b (pairs of one tet are appended together).
@@ -246,73 +242,85 @@ void AabbTree::query(const Aabb& box, std::span<const Aabb> boxes, std::vector<I
 
 // -------------------------------------------------------------------------- BroadPhase
 
-void BroadPhase::find_pairs(BroadPhaseKind kind, const TetBounds& a,
-                            std::span<const Index> subset_a, const TetBounds& b,
-                            std::span<const Index> subset_b, const AabbTree* tree_b,
-                            const Aabb& clip, std::vector<TetPair>& out) {
-  const std::size_t chunks = detail::num_chunks(subset_a.size(), kQueryChunk);
+Aabb clipped_tet_box(const TetCorners& t, const Aabb& region, int axis, double pad) {
+  Aabb box;
+  const double lo = region.lo[axis], hi = region.hi[axis];
+  for (const Vector3d& p : t)
+    if (p[axis] >= lo && p[axis] <= hi) box.extend(p);
+  for (const auto& e : kTetEdges) {
+    const Vector3d& p = t[e[0]];
+    const Vector3d& q = t[e[1]];
+    for (const double plane : {lo, hi}) {
+      const double dp = p[axis] - plane, dq = q[axis] - plane;
+      if ((dp < 0.0) == (dq < 0.0) || dp == dq) continue;  // no crossing (or NaN)
+      Vector3d x = p + (dp / (dp - dq)) * (q - p);
+      x[axis] = plane;
+      box.extend(x);
+    }
+  }
+  if (box.empty()) return box;
+  box.lo.array() -= pad;
+  box.hi.array() += pad;
+  return box.intersection(Aabb{region.lo.array() - pad, region.hi.array() + pad});
+}
+
+void BroadPhase::find_pairs(BroadPhaseKind kind, const BroadPhaseSide& a, const BroadPhaseSide& b,
+                            const BvhSide& bvh, std::vector<TetPair>& out) {
+  const std::size_t chunks = detail::num_chunks(a.tets.size(), kQueryChunk);
   detail::reset_parts(parts_, chunks);
-  const bool empty_b = kind == BroadPhaseKind::kBvh
-                           ? (tree_b == nullptr || tree_b->num_items() == 0)
-                           : subset_b.empty();
-  if (!subset_a.empty() && !empty_b && !clip.empty()) {
+  const bool ready =
+      kind == BroadPhaseKind::kBvh ? bvh.tree != nullptr && !b.tets.empty() : !b.tets.empty();
+  if (!a.tets.empty() && ready) {
     switch (kind) {
       case BroadPhaseKind::kGrid:
-        grid_pairs(a, subset_a, b, subset_b, clip);
+        grid_pairs(a, b);
         break;
       case BroadPhaseKind::kHash:
-        hash_pairs(a, subset_a, b, subset_b, clip);
+        hash_pairs(a, b);
         break;
       case BroadPhaseKind::kSap:
-        sap_pairs(a, subset_a, b, subset_b, clip);
+        sap_pairs(a, b);
         break;
       case BroadPhaseKind::kBvh:
-        bvh_pairs(a, subset_a, b, *tree_b, clip);
+        bvh_pairs(a, b, bvh);
         break;
     }
   }
   detail::concat_parts(parts_, chunks, out);
 }
 
-void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                            std::span<const Index> subset_b, const Aabb& clip) {
-  // The grid covers the (clipped) spheres of B; cell size = mean sphere diameter (paper,
-  // Sec. 3).
+void BroadPhase::grid_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b) {
+  // The paper's grid: tets rounded by spheres; cell size = mean sphere diameter. A tet
+  // goes into the cells its box meets (the box lies inside the sphere's box).
   Aabb extent;
   double diameter_sum = 0.0;
   std::size_t count = 0;
-  for (const Index t : subset_b) {
-    const BoundingSphere& s = b.spheres[t];
-    if (s.radius < 0.0) continue;
-    extent.extend(sphere_box(s).intersection(clip));
-    diameter_sum += 2.0 * s.radius;
+  for (std::size_t k = 0; k < b.tets.size(); ++k) {
+    const double r = b.spheres[b.tets[k]].radius;
+    if (r < 0.0 || b.boxes[k].empty()) continue;
+    extent.extend(b.boxes[k]);
+    diameter_sum += 2.0 * r;
     ++count;
   }
-  for (const Index t : subset_a) {
-    if (a.spheres[t].radius < 0.0) continue;
-    diameter_sum += 2.0 * a.spheres[t].radius;
-    ++count;
-  }
+  for (const Index t : a.tets)
+    if (a.spheres[t].radius >= 0.0) {
+      diameter_sum += 2.0 * a.spheres[t].radius;
+      ++count;
+    }
   if (extent.empty() || count == 0) return;
   Lattice lat;
-  size_lattice(lat, extent, diameter_sum / double(count), 2.0 * double(subset_b.size()) + 1024.0);
+  size_lattice(lat, extent, diameter_sum / double(count), 2.0 * double(b.tets.size()) + 1024.0);
   const std::int64_t cells = lat.dims[0] * lat.dims[1] * lat.dims[2];
 
-  // Counting sort of B's spheres into cells (B order within each cell).
-  cell_start_.assign(static_cast<std::size_t>(cells) + 1, 0);
-  low_b_.resize(subset_b.size());
-  const auto range_b = [&](std::size_t k, std::array<std::int32_t, 3>& lo,
-                           std::array<std::int32_t, 3>& hi) {
-    const BoundingSphere& s = b.spheres[subset_b[k]];
-    const Aabb sb = sphere_box(s).intersection(clip);
-    if (s.radius < 0.0 || sb.empty()) return false;
-    lo = lat.low(sb);
-    hi = lat.high(sb);
-    return true;
+  // Counting sort of B's tets into cells (B order within each cell).
+  const auto in_grid = [&](std::size_t k) {
+    return b.spheres[b.tets[k]].radius >= 0.0 && !b.boxes[k].empty();
   };
-  for (std::size_t k = 0; k < subset_b.size(); ++k) {
-    std::array<std::int32_t, 3> lo, hi;
-    if (!range_b(k, lo, hi)) continue;
+  cell_start_.assign(static_cast<std::size_t>(cells) + 1, 0);
+  low_b_.resize(b.tets.size());
+  for (std::size_t k = 0; k < b.tets.size(); ++k) {
+    if (!in_grid(k)) continue;
+    const auto lo = lat.low(b.boxes[k]), hi = lat.high(b.boxes[k]);
     low_b_[k] = lo;
     for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
       for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
@@ -323,9 +331,9 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
   cell_items_.resize(static_cast<std::size_t>(cell_start_.back()));
   {
     std::vector<Index> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t k = 0; k < subset_b.size(); ++k) {
-      std::array<std::int32_t, 3> lo, hi;
-      if (!range_b(k, lo, hi)) continue;
+    for (std::size_t k = 0; k < b.tets.size(); ++k) {
+      if (!in_grid(k)) continue;
+      const auto lo = lat.low(b.boxes[k]), hi = lat.high(b.boxes[k]);
       for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
         for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
           for (std::int32_t x = lo[0]; x <= hi[0]; ++x)
@@ -333,69 +341,63 @@ void BroadPhase::grid_pairs(const TetBounds& a, std::span<const Index> subset_a,
     }
   }
 
-  detail::for_chunks(
-      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
-        std::vector<TetPair>& part = parts_[chunk];
-        for (std::size_t i = begin; i < end; ++i) {
-          const Index ta = subset_a[i];
-          const BoundingSphere& s = a.spheres[ta];
-          if (s.radius < 0.0) continue;
-          const Aabb sa = sphere_box(s).intersection(clip);
-          if (!sa.overlaps(extent)) continue;
-          const Aabb box_a = a.boxes[ta].intersection(clip);
-          const auto lo = lat.low(sa), hi = lat.high(sa);
-          const std::size_t start = part.size();
-          for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
-            for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
-              for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
-                const std::int64_t c = lat.index(x, y, z);
-                for (Index e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
-                  const Index k = cell_items_[e];
-                  const auto& lb = low_b_[k];
-                  // Report each pair once: in the first cell the two ranges share.
-                  if (x != std::max(lo[0], lb[0]) || y != std::max(lo[1], lb[1]) ||
-                      z != std::max(lo[2], lb[2]))
-                    continue;
-                  const Index tb = subset_b[k];
-                  if (sphere_overlap(s, b.spheres[tb]) && box_a.overlaps(b.boxes[tb]))
-                    part.push_back({ta, tb});
-                }
-              }
-          sort_tail(part, start);
-        }
-      });
+  detail::for_chunks(a.tets.size(), kQueryChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+                       std::vector<TetPair>& part = parts_[chunk];
+                       for (std::size_t i = begin; i < end; ++i) {
+                         const Index ta = a.tets[i];
+                         const BoundingSphere& s = a.spheres[ta];
+                         const Aabb& box = a.boxes[i];
+                         if (s.radius < 0.0 || !box.overlaps(extent)) continue;
+                         const auto lo = lat.low(box), hi = lat.high(box);
+                         const std::size_t start = part.size();
+                         for (std::int32_t z = lo[2]; z <= hi[2]; ++z)
+                           for (std::int32_t y = lo[1]; y <= hi[1]; ++y)
+                             for (std::int32_t x = lo[0]; x <= hi[0]; ++x) {
+                               const std::int64_t c = lat.index(x, y, z);
+                               for (Index e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+                                 const Index k = cell_items_[e];
+                                 const auto& lb = low_b_[k];
+                                 // Report each pair once: in the first cell the two ranges share.
+                                 if (x != std::max(lo[0], lb[0]) || y != std::max(lo[1], lb[1]) ||
+                                     z != std::max(lo[2], lb[2]))
+                                   continue;
+                                 const Index tb = b.tets[k];
+                                 if (sphere_overlap(s, b.spheres[tb]) && box.overlaps(b.boxes[k]))
+                                   part.push_back({ta, tb});
+                               }
+                             }
+                         sort_tail(part, start);
+                       }
+                     });
 }
 
-void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                            std::span<const Index> subset_b, const Aabb& clip) {
-  // Cell size = mean tet box extent (Teschner et al. found the mean edge length best).
+void BroadPhase::hash_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b) {
+  // Cell size = mean box extent (Teschner et al. found the mean edge length best).
   Aabb extent;
   double size_sum = 0.0;
   std::size_t count = 0;
-  for (const Index t : subset_b) {
-    const Aabb& box = b.boxes[t];
+  for (const Aabb& box : b.boxes) {
     if (box.empty()) continue;
-    extent.extend(box.intersection(clip));
+    extent.extend(box);
     size_sum += (box.hi - box.lo).sum() / 3.0;
     ++count;
   }
-  for (const Index t : subset_a) {
-    const Aabb& box = a.boxes[t];
+  for (const Aabb& box : a.boxes) {
     if (box.empty()) continue;
     size_sum += (box.hi - box.lo).sum() / 3.0;
     ++count;
   }
   if (extent.empty() || count == 0) return;
   // Cells are counted from extent.lo (so coordinates are small and non-negative) and
-  // clamped into B's extent, which loses nothing: no (clipped) box of B lies outside it.
+  // clamped into B's extent, which loses nothing: no box of B lies outside it.
   Lattice lat;
   double h = size_sum / double(count);
-  const double max_entries = 8.0 * double(subset_b.size()) + 1024.0;
+  const double max_entries = 8.0 * double(b.tets.size()) + 1024.0;
   for (int iter = 0;; ++iter) {
     size_lattice(lat, extent, h, 1e15);
     double entries = 0.0;
-    for (const Index t : subset_b) {
-      const Aabb box = b.boxes[t].intersection(clip);
+    for (const Aabb& box : b.boxes) {
       if (box.empty()) continue;
       const auto lo = lat.low(box), hi = lat.high(box);
       entries += double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
@@ -405,9 +407,9 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
   }
 
   entries_.clear();
-  low_b_.resize(subset_b.size());
-  for (std::size_t k = 0; k < subset_b.size(); ++k) {
-    const Aabb box = b.boxes[subset_b[k]].intersection(clip);
+  low_b_.resize(b.tets.size());
+  for (std::size_t k = 0; k < b.tets.size(); ++k) {
+    const Aabb& box = b.boxes[k];
     if (box.empty()) continue;
     const auto lo = lat.low(box), hi = lat.high(box);
     low_b_[k] = lo;
@@ -430,11 +432,11 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
   }
 
   detail::for_chunks(
-      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+      a.tets.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
         std::vector<TetPair>& part = parts_[chunk];
         for (std::size_t i = begin; i < end; ++i) {
-          const Index ta = subset_a[i];
-          const Aabb box = a.boxes[ta].intersection(clip);
+          const Index ta = a.tets[i];
+          const Aabb& box = a.boxes[i];
           if (!box.overlaps(extent)) continue;
           const auto lo = lat.low(box), hi = lat.high(box);
           const std::size_t start = part.size();
@@ -449,8 +451,7 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
                   if (x != std::max(lo[0], lb[0]) || y != std::max(lo[1], lb[1]) ||
                       z != std::max(lo[2], lb[2]))
                     continue;  // reported in the first shared cell
-                  const Index tb = subset_b[en[0]];
-                  if (box.overlaps(b.boxes[tb])) part.push_back({ta, tb});
+                  if (box.overlaps(b.boxes[en[0]])) part.push_back({ta, b.tets[en[0]]});
                 }
               }
           sort_tail(part, start);
@@ -458,20 +459,18 @@ void BroadPhase::hash_pairs(const TetBounds& a, std::span<const Index> subset_a,
       });
 }
 
-void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                           std::span<const Index> subset_b, const Aabb& clip) {
-  // Sweep axis: the one along which the (clipped) box centres spread most.
+void BroadPhase::sap_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b) {
+  // Sweep axis: the one along which the box centres spread most.
   Vector3d sum = Vector3d::Zero(), sum2 = Vector3d::Zero();
   std::size_t count = 0;
-  const auto add = [&](const Aabb& box) {
-    if (box.empty()) return;
-    const Vector3d c = 0.5 * (box.lo + box.hi);
-    sum += c;
-    sum2 += c.cwiseProduct(c);
-    ++count;
-  };
-  for (const Index t : subset_a) add(a.boxes[t].intersection(clip));
-  for (const Index t : subset_b) add(b.boxes[t].intersection(clip));
+  for (const auto* boxes : {&a.boxes, &b.boxes})
+    for (const Aabb& box : *boxes) {
+      if (box.empty()) continue;
+      const Vector3d c = 0.5 * (box.lo + box.hi);
+      sum += c;
+      sum2 += c.cwiseProduct(c);
+      ++count;
+    }
   if (count == 0) return;
   const Vector3d mean = sum / double(count);
   const Vector3d var = sum2 / double(count) - mean.cwiseProduct(mean);
@@ -481,10 +480,10 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
 
   sorted_b_.clear();
   double max_len = 0.0;
-  for (const Index t : subset_b) {
-    const Aabb box = b.boxes[t].intersection(clip);
+  for (std::size_t k = 0; k < b.tets.size(); ++k) {
+    const Aabb& box = b.boxes[k];
     if (box.empty()) continue;
-    sorted_b_.emplace_back(box.lo[axis], t);
+    sorted_b_.emplace_back(box.lo[axis], static_cast<Index>(k));
     max_len = std::max(max_len, box.hi[axis] - box.lo[axis]);
   }
   if (sorted_b_.size() > 8192)
@@ -493,37 +492,37 @@ void BroadPhase::sap_pairs(const TetBounds& a, std::span<const Index> subset_a, 
     std::sort(sorted_b_.begin(), sorted_b_.end());
 
   detail::for_chunks(
-      subset_a.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
+      a.tets.size(), kQueryChunk, [&](std::size_t begin, std::size_t end, std::size_t chunk) {
         std::vector<TetPair>& part = parts_[chunk];
         for (std::size_t i = begin; i < end; ++i) {
-          const Index ta = subset_a[i];
-          const Aabb box = a.boxes[ta].intersection(clip);
+          const Aabb& box = a.boxes[i];
           if (box.empty()) continue;
-          // Clipped B boxes starting in [lo_a - max_len, hi_a] are the only ones that can
-          // reach A's.
+          // B boxes starting in [lo_a - max_len, hi_a] are the only ones that can reach A's.
           const auto first = std::lower_bound(
               sorted_b_.begin(), sorted_b_.end(), box.lo[axis] - max_len,
               [](const std::pair<double, Index>& e, double v) { return e.first < v; });
           const std::size_t start = part.size();
           for (auto it = first; it != sorted_b_.end() && it->first <= box.hi[axis]; ++it)
-            if (box.overlaps(b.boxes[it->second])) part.push_back({ta, it->second});
+            if (box.overlaps(b.boxes[it->second])) part.push_back({a.tets[i], b.tets[it->second]});
           sort_tail(part, start);
         }
       });
 }
 
-void BroadPhase::bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                           const AabbTree& tree_b, const Aabb& clip) {
-  detail::for_chunks(subset_a.size(), kQueryChunk,
+void BroadPhase::bvh_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b, const BvhSide& bvh) {
+  detail::for_chunks(a.tets.size(), kQueryChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t chunk) {
                        std::vector<TetPair>& part = parts_[chunk];
                        std::vector<Index> found;
                        for (std::size_t i = begin; i < end; ++i) {
-                         const Index ta = subset_a[i];
+                         const Aabb& box = a.boxes[i];
                          found.clear();
-                         tree_b.query(a.boxes[ta].intersection(clip), b.boxes, found);
+                         bvh.tree->query(box, bvh.tet_boxes, found);
                          std::sort(found.begin(), found.end());
-                         for (const Index tb : found) part.push_back({ta, tb});
+                         for (const Index tb : found) {
+                           const Index k = bvh.slot[tb];
+                           if (k >= 0 && box.overlaps(b.boxes[k])) part.push_back({a.tets[i], tb});
+                         }
                        }
                      });
 }

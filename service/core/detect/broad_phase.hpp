@@ -7,9 +7,9 @@
 //         = mean tet box extent, cells hashed into a table
 //   sap   sweep and prune of tet boxes on one axis (the axis of largest spread)
 //   bvh   AABB tree over the tets of B, built once per topology and refitted per frame
-// Every method returns the same kind of list: candidate pairs (a, b), sorted by (a, b),
-// without duplicates, whose closed boxes overlap (grid: and whose spheres overlap). A
-// pair of tets that overlap by more than 0 is always a candidate.
+// Every method returns the same list: candidate pairs (a, b), sorted by (a, b), without
+// duplicates, whose closed boxes overlap (grid: and whose spheres overlap). A pair of
+// tets that overlap by more than 0 is always a candidate.
 #pragma once
 
 #include <Eigen/Core>
@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/detect/contacts.hpp"
+#include "core/detect/tet_overlap.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
 namespace tc {
@@ -105,45 +106,59 @@ class AabbTree {
   std::vector<Index> items_;  ///< tet indices, leaf ranges are contiguous
 };
 
+/// Bounding box of the part of tet `t` inside `region`: exact for the slab of `region`
+/// along `axis` (the tet's corners in the slab and its edges' crossings of the two slab
+/// planes), then intersected with `region` and padded by `pad` (metres) on every side.
+/// Empty when the tet misses the slab. Where two objects barely touch, their overlap
+/// box is a thin slab and these boxes are far smaller than the tets' own.
+Aabb clipped_tet_box(const TetCorners& t, const Aabb& region, int axis, double pad);
+
+/// One object's side of a broad-phase query.
+struct BroadPhaseSide {
+  /// The tets to consider, sorted.
+  std::span<const Index> tets;
+  /// One box per entry of `tets`, inside that tet's own bounding box: where the tet can
+  /// meet the other object (detection passes clipped_tet_box() of the overlap box).
+  std::span<const Aabb> boxes;
+  /// kGrid only: bounding spheres indexed by tet (every tet of the object).
+  std::span<const BoundingSphere> spheres;
+};
+
+/// kBvh only: object B's tree and how its tets map to B's side.
+struct BvhSide {
+  const AabbTree* tree = nullptr;   ///< refitted tree over every tet of B
+  std::span<const Aabb> tet_boxes;  ///< per tet of B: the boxes the tree was refitted to
+  std::span<const Index> slot;      ///< per tet of B: its index in side b, or -1
+};
+
 /// Finds candidate tet pairs between two objects, keeping its buffers across calls. One
 /// instance per thread; the calls themselves run TBB loops.
 class BroadPhase {
  public:
-  /// Candidate pairs (a, b) with a in `subset_a` and b in `subset_b` whose boxes overlap
-  /// inside `clip` (kGrid: whose bounding spheres overlap too). Sorted by (a, b), no
-  /// duplicates. With `clip` = the intersection of the two object boxes this is every
-  /// pair of overlapping boxes (two boxes of the objects overlap only inside it), and
-  /// the spatial structures only see the clipped boxes, which are much smaller where
-  /// the objects barely touch.
+  /// Candidate pairs (a.tets[i], b.tets[j]) whose boxes a.boxes[i] and b.boxes[j]
+  /// overlap (closed test; kGrid: and whose bounding spheres overlap). Sorted by (a, b),
+  /// no duplicates, the same set for every method (kGrid: a subset of it).
   ///
-  /// @param[in] kind      method
-  /// @param[in] a, b      per-tet bounds of the two objects (this frame; kGrid: spheres)
-  /// @param[in] subset_a  tets of A to consider, sorted (e.g. those in the overlap box)
-  /// @param[in] subset_b  tets of B to consider, sorted (kBvh: ignored, `tree_b` is used)
-  /// @param[in] tree_b    the refitted tree of B; required for kBvh, else unused
-  /// @param[in] clip      the region pairs must overlap in (metres)
-  /// @param[out] out      the candidate pairs (cleared first)
-  void find_pairs(BroadPhaseKind kind, const TetBounds& a, std::span<const Index> subset_a,
-                  const TetBounds& b, std::span<const Index> subset_b, const AabbTree* tree_b,
-                  const Aabb& clip, std::vector<TetPair>& out);
+  /// @param[in] kind  method
+  /// @param[in] a, b  the two sides (this frame's boxes, metres)
+  /// @param[in] bvh   B's tree; required for kBvh, else ignored
+  /// @param[out] out  the candidate pairs (cleared first)
+  void find_pairs(BroadPhaseKind kind, const BroadPhaseSide& a, const BroadPhaseSide& b,
+                  const BvhSide& bvh, std::vector<TetPair>& out);
 
  private:
-  void grid_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                  std::span<const Index> subset_b, const Aabb& clip);
-  void hash_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                  std::span<const Index> subset_b, const Aabb& clip);
-  void sap_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                 std::span<const Index> subset_b, const Aabb& clip);
-  void bvh_pairs(const TetBounds& a, std::span<const Index> subset_a, const TetBounds& b,
-                 const AabbTree& tree_b, const Aabb& clip);
+  void grid_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b);
+  void hash_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b);
+  void sap_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b);
+  void bvh_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b, const BvhSide& bvh);
 
   // Buffers kept across calls.
-  std::vector<std::vector<TetPair>> parts_;           ///< per fixed chunk of subset_a
-  std::vector<Index> cell_start_;                     ///< grid/hash: CSR offsets per cell/bucket
-  std::vector<Index> cell_items_;                     ///< grid: tet of B; hash: entry index
-  std::vector<std::array<std::int32_t, 4>> entries_;  ///< hash: (tet, ix, iy, iz)
-  std::vector<std::array<std::int32_t, 3>> low_b_;    ///< grid/hash: first cell of each tet of B
-  std::vector<std::pair<double, Index>> sorted_b_;    ///< sap: (min on axis, tet of B)
+  std::vector<std::vector<TetPair>> parts_;           ///< per fixed chunk of side a
+  std::vector<Index> cell_start_;                     ///< grid/hash: CSR offsets per cell
+  std::vector<Index> cell_items_;                     ///< grid: index in b; hash: entry
+  std::vector<std::array<std::int32_t, 4>> entries_;  ///< hash: (index in b, ix, iy, iz)
+  std::vector<std::array<std::int32_t, 3>> low_b_;    ///< grid/hash: first cell per b
+  std::vector<std::pair<double, Index>> sorted_b_;    ///< sap: (min on axis, index in b)
 };
 
 }  // namespace tc

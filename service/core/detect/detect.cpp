@@ -178,25 +178,55 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   st.bounds_ms = ms_since(start);
 
   // Tets whose box meets the overlap box of the two objects: the only ones that can
-  // overlap anything of the other object.
+  // overlap anything of the other object. Each gets the box of its part inside that
+  // overlap box (exact across its thinnest axis): where the objects barely touch the
+  // overlap box is a thin slab and these boxes are much smaller than the tets'.
   const Aabb cull = a.box().intersection(b.box());
-  const auto filter = [&](const CollisionBody& body, std::vector<Index>& subset) {
+  const Eigen::Vector3d cull_extent = cull.hi - cull.lo;
+  int slab_axis = 0;
+  if (cull_extent.y() < cull_extent[slab_axis]) slab_axis = 1;
+  if (cull_extent.z() < cull_extent[slab_axis]) slab_axis = 2;
+  const double rel = options_.relative_tolerance;
+  const auto filter = [&](const CollisionBody& body, std::vector<Index>& subset,
+                          std::vector<Aabb>& boxes) {
     const std::size_t m = body.tets_.size();
     const std::size_t chunks = detail::num_chunks(m, kFilterChunk);
     detail::reset_parts(index_parts_, chunks);
+    detail::reset_parts(box_parts_, chunks);
+    const Positions& p = *body.positions_;
     detail::for_chunks(m, kFilterChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-      for (std::size_t t = begin; t < end; ++t)
-        if (body.bounds_.boxes[t].overlaps(cull)) index_parts_[c].push_back(static_cast<Index>(t));
+      for (std::size_t t = begin; t < end; ++t) {
+        const Aabb& raw = body.bounds_.boxes[t];
+        if (!raw.overlaps(cull)) continue;
+        // Pad: the tolerance scale of this tet, plus rounding of its coordinates.
+        const double pad = rel * (raw.hi - raw.lo).maxCoeff() +
+                           8.0 * std::numeric_limits<double>::epsilon() *
+                               raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
+        const Aabb box = clipped_tet_box(tet_corners(p, body.tets_[t]), cull, slab_axis, pad);
+        if (box.empty()) continue;
+        index_parts_[c].push_back(static_cast<Index>(t));
+        box_parts_[c].push_back(box);
+      }
     });
     detail::concat_parts(index_parts_, chunks, subset);
+    detail::concat_parts(box_parts_, chunks, boxes);
   };
-  filter(a, subset_a_);
-  subset_b_.clear();
-  if (kind != BroadPhaseKind::kBvh) filter(b, subset_b_);
+  filter(a, subset_a_, boxes_a_);
+  filter(b, subset_b_, boxes_b_);
   st.tets_a_in_box = subset_a_.size();
   st.tets_b_in_box = subset_b_.size();
 
-  broad_.find_pairs(kind, a.bounds_, subset_a_, b.bounds_, subset_b_, &b.tree_, cull, candidates_);
+  BvhSide bvh;
+  if (kind == BroadPhaseKind::kBvh) {
+    if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
+    for (std::size_t k = 0; k < subset_b_.size(); ++k)
+      box_slot_[subset_b_[k]] = static_cast<Index>(k);
+    bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
+  }
+  broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
+                    {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
+  if (kind == BroadPhaseKind::kBvh)
+    for (const Index t : subset_b_) box_slot_[t] = -1;
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();
   st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();
@@ -218,7 +248,6 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   build_geometry(b, geom_b_);
 
   // Narrow phase: exact overlap of every candidate, in candidate order.
-  const double rel = options_.relative_tolerance;
   {
     const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
     detail::reset_parts(pair_parts_, chunks);

@@ -42,7 +42,7 @@ struct DetectOptions {
 struct DetectStats {
   bool boxes_overlap = false;     ///< object boxes touch (else nothing else ran)
   std::size_t tets_a_in_box = 0;  ///< tets of A whose box meets the overlap box
-  std::size_t tets_b_in_box = 0;  ///< same for B (not counted by the bvh method)
+  std::size_t tets_b_in_box = 0;  ///< same for B
   std::size_t candidates = 0;     ///< tet pairs out of the broad phase
   std::size_t overlapping = 0;    ///< tet pairs out of the narrow phase
   double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
@@ -141,8 +141,11 @@ class Detector {
 
   DetectOptions options_;
   BroadPhase broad_;
-  std::vector<Index> subset_a_, subset_b_;
+  std::vector<Index> subset_a_, subset_b_;  ///< tets in the overlap box
+  std::vector<Aabb> boxes_a_, boxes_b_;     ///< their boxes clipped to it
   std::vector<std::vector<Index>> index_parts_;
+  std::vector<std::vector<Aabb>> box_parts_;
+  std::vector<Index> box_slot_;  ///< scratch: tet of B -> index in subset_b_, or -1
   std::vector<TetPair> candidates_;
   std::vector<std::vector<TetPair>> pair_parts_;
   Geometry geom_a_, geom_b_;
