@@ -1,0 +1,163 @@
+// Detection stage (service/core/detect): whole per-frame detection (set_positions of both
+// objects + Detector::detect, no file I/O) for each broad phase at 1 and 2 threads.
+//
+//   TorusBox/<broad>/<threads>/<sink_um>   data/meshes/torus.msh (6,947 tets) lying flat
+//       on the top face of data/meshes/box.msh (3,276 tets), sunk by sink_um micrometres
+//       (the torus tube has radius 0.1 m; the box top is z = 0.15 m)
+//   LargeBoxes/<broad>/<threads>           two structured boxes of 37^3 x 6 = 303,918 tets
+//       ([0,1]^3), B shifted by 0.9 m along x (10% overlap) and by a fraction of a cell
+//       along y and z so that no faces coincide
+//
+// Time is wall-clock (UseRealTime); counters give the candidate and overlapping pairs
+// and the broad/narrow split. Results and commands: docs/BENCHMARKS.md.
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "core/detect/detect.hpp"
+#include "core/io/mesh_io.hpp"
+#include "core/mesh/topology.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+struct Object {
+  TetMesh mesh;
+  Topology topo;
+};
+
+std::unique_ptr<Object> make_object(TetMesh mesh) {
+  auto o = std::make_unique<Object>();
+  o->mesh = std::move(mesh);
+  o->topo = build_topology(o->mesh.tets, o->mesh.num_nodes());
+  return o;
+}
+
+const Object* data_mesh(const char* name) {
+  const std::filesystem::path path = std::filesystem::path(TC_SOURCE_DIR) / "data/meshes" / name;
+  auto mesh = read_mesh(path);
+  if (!mesh) {
+    std::fprintf(stderr, "bench_detect: %s\n", mesh.error().message.c_str());
+    return nullptr;
+  }
+  return make_object(std::move(*mesh)).release();
+}
+
+const Object* torus() {
+  static const Object* o = data_mesh("torus.msh");
+  return o;
+}
+const Object* box() {
+  static const Object* o = data_mesh("box.msh");
+  return o;
+}
+
+constexpr int kLargeCells = 37;  // 37^3 cubes x 6 = 303,918 tets
+
+const Object* large_a() {
+  static const Object* o =
+      make_object(test::structured_box(kLargeCells, kLargeCells, kLargeCells,
+                                       Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()))
+          .release();
+  return o;
+}
+const Object* large_b() {
+  static const Object* o = [] {
+    const double h = 1.0 / kLargeCells;
+    const Eigen::Vector3d lo(0.9, 0.31 * h, 0.17 * h);
+    return make_object(test::structured_box(kLargeCells, kLargeCells, kLargeCells, lo,
+                                            lo + Eigen::Vector3d::Ones()))
+        .release();
+  }();
+  return o;
+}
+
+/// Runs frames of detection between a and b (b translated by move_b).
+void run_frames(benchmark::State& state, const Object* a, const Object* b,
+                const Eigen::Vector3d& move_b) {
+  if (a == nullptr || b == nullptr) {
+    state.SkipWithError("mesh not available");
+    return;
+  }
+  const auto kind = static_cast<BroadPhaseKind>(state.range(0));
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<std::size_t>(state.range(1)));
+  Positions pb = b->mesh.positions;
+  pb.colwise() += move_b;
+  DetectOptions options;
+  options.broad_phase = kind;
+  CollisionBody body_a(a->mesh.tets, a->topo);
+  CollisionBody body_b(b->mesh.tets, b->topo);
+  Detector detector(options);
+  PairContacts contacts;
+  DetectStats stats;
+  // One untimed frame: builds the per-topology AABB trees (kBvh), sizes the buffers.
+  body_a.set_positions(a->mesh.positions);
+  body_b.set_positions(pb);
+  detector.detect(body_a, body_b, contacts, &stats);
+  double broad = 0.0, narrow = 0.0, bounds = 0.0, intrusion = 0.0;
+  for (auto _ : state) {
+    body_a.set_positions(a->mesh.positions);
+    body_b.set_positions(pb);
+    detector.detect(body_a, body_b, contacts, &stats);
+    benchmark::DoNotOptimize(contacts.overlapping.data());
+    broad += stats.broad_ms;
+    narrow += stats.narrow_ms;
+    bounds += stats.bounds_ms;
+    intrusion += stats.intrusion_ms;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["candidates"] = static_cast<double>(stats.candidates);
+  state.counters["overlapping"] = static_cast<double>(stats.overlapping);
+  state.counters["edges"] =
+      static_cast<double>(contacts.edges_a_in_b.size() + contacts.edges_b_in_a.size());
+  state.counters["broad_ms"] = broad / n;
+  state.counters["narrow_ms"] = narrow / n;
+  state.counters["bounds_ms"] = bounds / n;
+  state.counters["intrusion_ms"] = intrusion / n;
+  state.SetLabel(std::string(broad_phase_name(kind)));
+}
+
+void TorusBox(benchmark::State& state) {
+  // Torus centre at z = 0.15 + 0.1 - sink: its lowest point is `sink` below the box top.
+  const double sink = static_cast<double>(state.range(2)) * 1e-6;
+  run_frames(state, box(), torus(), Eigen::Vector3d(0.0, 0.0, 0.25 - sink));
+}
+
+void LargeBoxes(benchmark::State& state) {
+  run_frames(state, large_a(), large_b(), Eigen::Vector3d::Zero());
+}
+
+void torus_args(benchmark::internal::Benchmark* b) {
+  for (const int kind : {0, 1, 2, 3})
+    for (const int threads : {1, 2}) b->Args({kind, threads, 10000});
+  for (const int sink : {5000, 20000, 50000})
+    for (const int threads : {1, 2}) b->Args({3, threads, sink});
+}
+
+void large_args(benchmark::internal::Benchmark* b) {
+  for (const int kind : {0, 1, 2, 3})
+    for (const int threads : {1, 2}) b->Args({kind, threads});
+}
+
+BENCHMARK(TorusBox)
+    ->Apply(torus_args)
+    ->ArgNames({"broad", "threads", "sink_um"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+BENCHMARK(LargeBoxes)
+    ->Apply(large_args)
+    ->ArgNames({"broad", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+
+}  // namespace
+}  // namespace tc
+
+BENCHMARK_MAIN();

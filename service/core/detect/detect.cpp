@@ -1,0 +1,493 @@
+#include "core/detect/detect.hpp"
+
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "core/detect/chunked.hpp"
+#include "core/mesh/geometry.hpp"
+
+namespace tc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+constexpr std::size_t kNarrowChunk = 256;
+constexpr std::size_t kFeatureChunk = 128;
+constexpr std::size_t kFilterChunk = 4096;
+constexpr std::size_t kParallelSortMin = 16384;
+
+template <typename T>
+void sort_values(std::vector<T>& v) {
+  if (v.size() >= kParallelSortMin)
+    tbb::parallel_sort(v.begin(), v.end());
+  else
+    std::sort(v.begin(), v.end());
+}
+
+template <typename T>
+void sort_unique(std::vector<T>& v) {
+  sort_values(v);
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+
+/// CSR of item -> owners from a per-owner list of items.
+template <std::size_t K>
+Csr invert(const std::vector<std::array<Index, K>>& owned, Index num_items) {
+  Csr csr;
+  csr.offsets.assign(static_cast<std::size_t>(num_items) + 1, 0);
+  for (const auto& row : owned)
+    for (const Index i : row) ++csr.offsets[i + 1];
+  for (Index i = 0; i < num_items; ++i) csr.offsets[i + 1] += csr.offsets[i];
+  csr.indices.resize(static_cast<std::size_t>(csr.offsets.back()));
+  std::vector<Index> fill(csr.offsets.begin(), csr.offsets.end() - 1);
+  for (std::size_t o = 0; o < owned.size(); ++o)
+    for (const Index i : owned[o]) csr.indices[fill[i]++] = static_cast<Index>(o);
+  return csr;  // rows sorted: owners are visited in order
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------ CollisionBody
+
+CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology)
+    : tets_(tets.begin(), tets.end()), num_nodes_(topology.num_nodes), edges_(topology.edges) {
+  if (topology.num_tets != static_cast<Index>(tets.size()))
+    throw std::invalid_argument("CollisionBody: topology has " + std::to_string(topology.num_tets) +
+                                " tets, mesh has " + std::to_string(tets.size()));
+  for (std::size_t t = 0; t < tets_.size(); ++t)
+    for (const Index v : tets_[t])
+      if (v < 0 || v >= num_nodes_)
+        throw std::invalid_argument("CollisionBody: tet " + std::to_string(t) + " uses node " +
+                                    std::to_string(v) + " outside [0, " +
+                                    std::to_string(num_nodes_) + ")");
+  node_tets_ = topology.node_tets;
+  if (node_tets_.rows() != num_nodes_) {
+    std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
+    node_tets_ = invert(owned, num_nodes_);
+  }
+  tet_edges_.resize(tets_.size());
+  for (std::size_t t = 0; t < tets_.size(); ++t)
+    for (int k = 0; k < 6; ++k) {
+      Index u = tets_[t][kTetEdges[k][0]], v = tets_[t][kTetEdges[k][1]];
+      if (u > v) std::swap(u, v);
+      const std::array<Index, 2> key{u, v};
+      const auto it = std::lower_bound(edges_.begin(), edges_.end(), key);
+      if (it == edges_.end() || *it != key)
+        throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
+                                    std::to_string(v) + ") of tet " + std::to_string(t) +
+                                    " is not in the topology");
+      tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
+    }
+  edge_tets_ = invert(tet_edges_, static_cast<Index>(edges_.size()));
+}
+
+void CollisionBody::set_positions(const Positions& positions) {
+  if (positions.cols() != num_nodes_)
+    throw std::invalid_argument("CollisionBody: " + std::to_string(positions.cols()) +
+                                " positions for " + std::to_string(num_nodes_) + " nodes");
+  positions_ = &positions;
+  bounds_ready_ = false;
+  tree_ready_ = false;
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  constexpr std::size_t kChunk = 8192;
+  const std::size_t chunks = detail::num_chunks(n, kChunk);
+  std::vector<Aabb> part(chunks);
+  detail::for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+    Aabb b;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3d p = positions.col(static_cast<Eigen::Index>(i));
+      if (p.allFinite()) b.extend(p);
+    }
+    part[c] = b;
+  });
+  box_ = Aabb{};
+  for (const Aabb& b : part) box_.extend(b);
+}
+
+void CollisionBody::prepare(BroadPhaseKind kind) {
+  if (positions_ == nullptr)
+    throw std::logic_error("CollisionBody::prepare: set_positions() was not called");
+  const bool spheres = kind == BroadPhaseKind::kGrid;
+  if (!bounds_ready_ || (spheres && !spheres_ready_)) {
+    bounds_.compute(*positions_, tets_, spheres);
+    bounds_ready_ = true;
+    spheres_ready_ = spheres;
+  }
+  if (kind == BroadPhaseKind::kBvh && !tree_ready_) {
+    if (!tree_built_) {
+      tree_.build(bounds_.boxes);  // shape fixed from now on (per topology)
+      tree_built_ = true;
+    } else {
+      tree_.refit(bounds_.boxes);
+    }
+    tree_ready_ = true;
+  }
+}
+
+// ----------------------------------------------------------------------------- Detector
+
+Detector::Detector(DetectOptions options) : options_(options) {}
+
+void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
+  if (g.slot.size() < body.tets_.size()) g.slot.resize(body.tets_.size(), -1);
+  g.geom.resize(g.tets.size());
+  for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
+  const Positions& p = *body.positions_;
+  detail::for_chunks(g.tets.size(), 512, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i)
+      g.geom[i] = make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]));
+  });
+}
+
+void Detector::clear_slots(Geometry& g) {
+  for (const Index t : g.tets) g.slot[t] = -1;
+}
+
+void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats) {
+  const auto start = Clock::now();
+  DetectStats st;
+  out.overlapping.clear();
+  out.marked_a.clear();
+  out.marked_b.clear();
+  out.nodes_a_in_b.clear();
+  out.nodes_b_in_a.clear();
+  out.edges_a_in_b.clear();
+  out.edges_b_in_a.clear();
+  candidates_.clear();
+  if (a.positions_ == nullptr || b.positions_ == nullptr)
+    throw std::logic_error("Detector::detect: set_positions() was not called");
+
+  st.boxes_overlap = a.box().overlaps(b.box());
+  if (!st.boxes_overlap) {
+    st.broad_ms = st.total_ms = ms_since(start);
+    if (stats != nullptr) *stats = st;
+    return;
+  }
+  const BroadPhaseKind kind = options_.broad_phase;
+  a.prepare(kind);
+  b.prepare(kind);
+  st.bounds_ms = ms_since(start);
+
+  // Tets whose box meets the overlap box of the two objects: the only ones that can
+  // overlap anything of the other object. Each gets the box of its part inside that
+  // overlap box (exact across its thinnest axis): where the objects barely touch the
+  // overlap box is a thin slab and these boxes are much smaller than the tets'.
+  const Aabb cull = a.box().intersection(b.box());
+  const Eigen::Vector3d cull_extent = cull.hi - cull.lo;
+  int slab_axis = 0;
+  if (cull_extent.y() < cull_extent[slab_axis]) slab_axis = 1;
+  if (cull_extent.z() < cull_extent[slab_axis]) slab_axis = 2;
+  const double rel = options_.relative_tolerance;
+  const auto filter = [&](const CollisionBody& body, std::vector<Index>& subset,
+                          std::vector<Aabb>& boxes) {
+    const std::size_t m = body.tets_.size();
+    const std::size_t chunks = detail::num_chunks(m, kFilterChunk);
+    detail::reset_parts(index_parts_, chunks);
+    detail::reset_parts(box_parts_, chunks);
+    const Positions& p = *body.positions_;
+    detail::for_chunks(m, kFilterChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+      for (std::size_t t = begin; t < end; ++t) {
+        const Aabb& raw = body.bounds_.boxes[t];
+        if (!raw.overlaps(cull)) continue;
+        // Pad: the tolerance scale of this tet, plus rounding of its coordinates.
+        const double pad = rel * (raw.hi - raw.lo).maxCoeff() +
+                           8.0 * std::numeric_limits<double>::epsilon() *
+                               raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
+        const Aabb box = clipped_tet_box(tet_corners(p, body.tets_[t]), cull, slab_axis, pad);
+        if (box.empty()) continue;
+        index_parts_[c].push_back(static_cast<Index>(t));
+        box_parts_[c].push_back(box);
+      }
+    });
+    detail::concat_parts(index_parts_, chunks, subset);
+    detail::concat_parts(box_parts_, chunks, boxes);
+  };
+  filter(a, subset_a_, boxes_a_);
+  filter(b, subset_b_, boxes_b_);
+  st.tets_a_in_box = subset_a_.size();
+  st.tets_b_in_box = subset_b_.size();
+
+  BvhSide bvh;
+  if (kind == BroadPhaseKind::kBvh) {
+    if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
+    for (std::size_t k = 0; k < subset_b_.size(); ++k)
+      box_slot_[subset_b_[k]] = static_cast<Index>(k);
+    bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
+  }
+  broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
+                    {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
+  if (kind == BroadPhaseKind::kBvh)
+    for (const Index t : subset_b_) box_slot_[t] = -1;
+  st.candidates = candidates_.size();
+  const auto broad_end = Clock::now();
+  st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();
+
+  // Geometry of the tets in candidate pairs, once per tet.
+  geom_a_.tets.clear();
+  for (const TetPair& p : candidates_)
+    if (geom_a_.tets.empty() || geom_a_.tets.back() != p.tet_a) geom_a_.tets.push_back(p.tet_a);
+  if (seen_.size() < b.tets_.size()) seen_.resize(b.tets_.size(), 0);
+  geom_b_.tets.clear();
+  for (const TetPair& p : candidates_)
+    if (!seen_[p.tet_b]) {
+      seen_[p.tet_b] = 1;
+      geom_b_.tets.push_back(p.tet_b);
+    }
+  for (const Index t : geom_b_.tets) seen_[t] = 0;
+  sort_values(geom_b_.tets);
+  build_geometry(a, geom_a_);
+  build_geometry(b, geom_b_);
+
+  // Narrow phase: exact overlap of every candidate, in candidate order.
+  {
+    const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
+    detail::reset_parts(pair_parts_, chunks);
+    detail::for_chunks(candidates_.size(), kNarrowChunk,
+                       [&](std::size_t begin, std::size_t end, std::size_t c) {
+                         for (std::size_t i = begin; i < end; ++i) {
+                           const TetPair& p = candidates_[i];
+                           const TetGeometry& ga = geom_a_.geom[geom_a_.slot[p.tet_a]];
+                           const TetGeometry& gb = geom_b_.geom[geom_b_.slot[p.tet_b]];
+                           if (tets_overlap(ga, gb, rel * pair_scale(ga, gb)))
+                             pair_parts_[c].push_back(p);
+                         }
+                       });
+    detail::concat_parts(pair_parts_, chunks, out.overlapping);
+  }
+  st.overlapping = out.overlapping.size();
+
+  // Marked tets and, for each, the tets of the other object it overlaps.
+  rows_a_.offsets.clear();
+  rows_a_.items.resize(out.overlapping.size());
+  for (std::size_t i = 0; i < out.overlapping.size(); ++i) {
+    const TetPair& p = out.overlapping[i];
+    if (out.marked_a.empty() || out.marked_a.back() != p.tet_a) {
+      out.marked_a.push_back(p.tet_a);
+      rows_a_.offsets.push_back(static_cast<Index>(i));
+    }
+    rows_a_.items[i] = p.tet_b;
+  }
+  rows_a_.offsets.push_back(static_cast<Index>(out.overlapping.size()));
+
+  keys_.resize(out.overlapping.size());
+  for (std::size_t i = 0; i < out.overlapping.size(); ++i)
+    keys_[i] = (static_cast<std::uint64_t>(out.overlapping[i].tet_b) << 32) |
+               static_cast<std::uint32_t>(out.overlapping[i].tet_a);
+  sort_values(keys_);
+  rows_b_.offsets.clear();
+  rows_b_.items.resize(keys_.size());
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    const Index tb = static_cast<Index>(keys_[i] >> 32);
+    if (out.marked_b.empty() || out.marked_b.back() != tb) {
+      out.marked_b.push_back(tb);
+      rows_b_.offsets.push_back(static_cast<Index>(i));
+    }
+    rows_b_.items[i] = static_cast<Index>(keys_[i] & 0xffffffffULL);
+  }
+  rows_b_.offsets.push_back(static_cast<Index>(keys_.size()));
+
+  const auto intrusion_start = Clock::now();
+  if (!out.overlapping.empty() && (options_.intruding_nodes || options_.intruding_edges)) {
+    for (int side = 0; side < 2; ++side) {
+      const CollisionBody& x = side == 0 ? a : b;
+      const CollisionBody& y = side == 0 ? b : a;
+      const Geometry& gy = side == 0 ? geom_b_ : geom_a_;
+      const std::vector<Index>& marked = side == 0 ? out.marked_a : out.marked_b;
+      const Rows& rows = side == 0 ? rows_a_ : rows_b_;
+      if (row_of_.size() < x.tets_.size()) row_of_.resize(x.tets_.size(), -1);
+      for (std::size_t r = 0; r < marked.size(); ++r) row_of_[marked[r]] = static_cast<Index>(r);
+      if (options_.intruding_nodes)
+        intruding_nodes(x, marked, rows, y, gy, side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
+      if (options_.intruding_edges)
+        intruding_edges(x, marked, rows, y, gy, side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
+      for (const Index t : marked) row_of_[t] = -1;
+    }
+  }
+  clear_slots(geom_a_);
+  clear_slots(geom_b_);
+  st.intrusion_ms = ms_since(intrusion_start);
+
+  st.narrow_ms = ms_since(broad_end);
+  st.total_ms = ms_since(start);
+  if (stats != nullptr) *stats = st;
+}
+
+void Detector::collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges) {
+  // The nodes (or edges) of the marked tets of X, each once, sorted.
+  const std::size_t count = edges ? x.edges_.size() : static_cast<std::size_t>(x.num_nodes_);
+  if (seen_.size() < count) seen_.resize(count, 0);
+  features_.clear();
+  const auto add = [&](Index f) {
+    if (!seen_[f]) {
+      seen_[f] = 1;
+      features_.push_back(f);
+    }
+  };
+  for (const Index t : marked) {
+    if (edges) {
+      for (const Index e : x.tet_edges_[t]) add(e);
+    } else {
+      for (const Index v : x.tets_[t]) add(v);
+    }
+  }
+  for (const Index f : features_) seen_[f] = 0;
+  sort_values(features_);
+}
+
+void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
+                               const Rows& rows, const CollisionBody&, const Geometry& gy,
+                               std::vector<IntrudingNode>& out) {
+  collect_features(marked, x, false);
+  const Positions& px = *x.positions_;
+  const double rel = options_.relative_tolerance;
+  const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
+  detail::reset_parts(node_parts_, chunks);
+  detail::for_chunks(features_.size(), kFeatureChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t c) {
+                       for (std::size_t i = begin; i < end; ++i) {
+                         const Index node = features_[i];
+                         const Eigen::Vector3d p = px.col(node);
+                         // The first tet of Y (in tet order) containing the node, among the tets
+                         // overlapped by the marked tets around it. Rows repeat tets; no need to
+                         // sort them: a tet not before the best found so far is skipped.
+                         Index best = std::numeric_limits<Index>::max();
+                         Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+                         for (const Index t : x.node_tets_.row(node)) {
+                           const Index r = row_of_[t];
+                           if (r < 0) continue;
+                           for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
+                             const Index ty = rows.items[k];
+                             if (ty >= best) break;  // rows are sorted
+                             const TetGeometry& g = gy.geom[gy.slot[ty]];
+                             const double tol = rel * g.scale;
+                             if (!((p.array() >= g.lo.array() - tol).all() &&
+                                   (p.array() <= g.hi.array() + tol).all()))
+                               continue;
+                             const PointInTet hit = point_in_tet(p, g, tol);
+                             if (hit.inside) {
+                               best = ty;
+                               bary = hit.bary;
+                               break;
+                             }
+                           }
+                         }
+                         if (best != std::numeric_limits<Index>::max())
+                           node_parts_[c].push_back({node, best, bary});
+                       }
+                     });
+  detail::concat_parts(node_parts_, chunks, out);
+}
+
+namespace {
+
+/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
+/// through another tet of X around the same edge is skipped. Only used for dedup, so
+/// the output does not depend on which thread ran what.
+struct VisitMarks {
+  std::vector<std::uint64_t> mark;
+  std::uint64_t now = 0;
+};
+thread_local VisitMarks t_marks;
+
+struct EdgeHit {
+  IntrudingEdge edge;
+  double dl;  ///< tolerance in lambda units
+};
+
+}  // namespace
+
+void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
+                               const Rows& rows, const CollisionBody&, const Geometry& gy,
+                               std::vector<IntrudingEdge>& out) {
+  collect_features(marked, x, true);
+  const Positions& px = *x.positions_;
+  const double rel = options_.relative_tolerance;
+  const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
+  detail::reset_parts(edge_parts_, chunks);
+  detail::for_chunks(
+      features_.size(), kFeatureChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+        VisitMarks& marks = t_marks;
+        if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
+        std::vector<EdgeHit> hits;
+        std::vector<IntrudingEdge>& part = edge_parts_[c];
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index edge = features_[i];
+          const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
+          const Eigen::Vector3d p1 = px.col(x.edges_[edge][1]);
+          const Eigen::Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
+          const double length = (p1 - p0).norm();
+          const std::uint64_t now = ++marks.now;
+          hits.clear();
+          // Every tet of Y overlapped by a marked tet of X around the edge, once.
+          for (const Index t : x.edge_tets_.row(edge)) {
+            const Index r = row_of_[t];
+            if (r < 0) continue;
+            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
+              const Index ty = rows.items[k];
+              const Index slot = gy.slot[ty];
+              if (marks.mark[slot] == now) continue;
+              marks.mark[slot] = now;
+              const TetGeometry& g = gy.geom[slot];
+              const double tol = rel * std::max(g.scale, length);
+              if (!((lo.array() <= g.hi.array() + tol).all() &&
+                    (hi.array() >= g.lo.array() - tol).all()))
+                continue;
+              const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
+              if (clip.hit)
+                hits.push_back({{edge, ty, clip.lambda_in, clip.lambda_out}, tol / length});
+            }
+          }
+          std::sort(hits.begin(), hits.end(),
+                    [](const EdgeHit& u, const EdgeHit& v) { return u.edge.tet < v.edge.tet; });
+          const std::size_t first = part.size();
+          for (const EdgeHit& h : hits) {
+            // An edge lying in a face (or along an edge) shared by several tets of Y is
+            // inside each of them over the same interval: keep the first tet only, so the
+            // response does not count that stretch twice.
+            bool repeated = false;
+            for (std::size_t k = first; k < part.size() && !repeated; ++k)
+              repeated = std::abs(part[k].lambda_in - h.edge.lambda_in) <= h.dl &&
+                         std::abs(part[k].lambda_out - h.edge.lambda_out) <= h.dl;
+            if (!repeated) part.push_back(h.edge);
+          }
+        }
+      });
+  detail::concat_parts(edge_parts_, chunks, out);
+}
+
+// ---------------------------------------------------------------------------- one-offs
+
+PairContacts detect_pair(const Positions& positions_a, std::span<const Tet> tets_a,
+                         const Topology& topology_a, const Positions& positions_b,
+                         std::span<const Tet> tets_b, const Topology& topology_b,
+                         const DetectOptions& options, DetectStats* stats) {
+  CollisionBody a(tets_a, topology_a);
+  CollisionBody b(tets_b, topology_b);
+  a.set_positions(positions_a);
+  b.set_positions(positions_b);
+  Detector detector(options);
+  PairContacts out;
+  detector.detect(a, b, out, stats);
+  return out;
+}
+
+std::vector<std::pair<Index, Index>> touching_object_pairs(
+    std::span<const Aabb> boxes, const std::function<bool(Index, Index)>& enabled) {
+  std::vector<std::pair<Index, Index>> pairs;
+  const Index k = static_cast<Index>(boxes.size());
+  for (Index i = 0; i < k; ++i)
+    for (Index j = i + 1; j < k; ++j)
+      if (boxes[i].overlaps(boxes[j]) && (!enabled || enabled(i, j))) pairs.emplace_back(i, j);
+  return pairs;
+}
+
+}  // namespace tc

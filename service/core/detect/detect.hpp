@@ -1,0 +1,174 @@
+// Collision detection between two deformable tet meshes (paper Sec. 3): object boxes,
+// broad phase, exact tet-tet overlap, then the intruding nodes and edges the response
+// needs. Self-collision (a mesh against itself) is out of scope.
+//
+// Two ways in:
+//   detect_pair(...)          one-off, for scripts and tests
+//   CollisionBody + Detector  for the per-frame pipeline: a body is built once per
+//                             topology and keeps its bounds and AABB tree across frames;
+//                             a detector keeps its buffers across pairs and frames.
+// Output: PairContacts (core/detect/contacts.hpp), every list sorted, bit-identical
+// whatever the TBB thread count. Units: metres throughout. See docs/DETECTION.md.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "core/detect/broad_phase.hpp"
+#include "core/detect/contacts.hpp"
+#include "core/detect/tet_overlap.hpp"
+#include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
+
+namespace tc {
+
+struct DetectOptions {
+  /// Broad phase method. The default comes from bench_detect (docs/DETECTION.md).
+  BroadPhaseKind broad_phase = BroadPhaseKind::kBvh;
+  /// Distance tolerance relative to the local length scale (the largest box extent of
+  /// the two tets, of the tet, or of the tet and the edge tested). Penetrations up to
+  /// it count as touching, which is not an overlap.
+  double relative_tolerance = kDefaultRelativeTolerance;
+  /// Compute nodes_a_in_b / nodes_b_in_a.
+  bool intruding_nodes = true;
+  /// Compute edges_a_in_b / edges_b_in_a.
+  bool intruding_edges = true;
+};
+
+/// What one detect() call did and how long it took.
+struct DetectStats {
+  bool boxes_overlap = false;     ///< object boxes touch (else nothing else ran)
+  std::size_t tets_a_in_box = 0;  ///< tets of A whose box meets the overlap box
+  std::size_t tets_b_in_box = 0;  ///< same for B
+  std::size_t candidates = 0;     ///< tet pairs out of the broad phase
+  std::size_t overlapping = 0;    ///< tet pairs out of the narrow phase
+  double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
+  double narrow_ms = 0.0;         ///< exact overlap tests, marked tets, intrusions
+  double total_ms = 0.0;
+  // Finer split, included in the above.
+  double bounds_ms = 0.0;     ///< tet bounds and tree refit (prepare), part of broad_ms
+  double intrusion_ms = 0.0;  ///< intruding nodes and edges, part of narrow_ms
+};
+
+/// One object as detection sees it: its topology-derived tables (built once, in the
+/// constructor) and, per frame, its positions, box, tet bounds and AABB tree.
+class CollisionBody {
+ public:
+  /// @param[in] tets      m tets, node indices in [0, topology.num_nodes) (validate first)
+  /// @param[in] topology  the topology of exactly these tets (build_topology)
+  /// @throws std::invalid_argument when the tets and the topology disagree
+  CollisionBody(std::span<const Tet> tets, const Topology& topology);
+
+  /// Starts a new frame: keeps a reference to `positions` (3 x n, metres; it must stay
+  /// alive and unchanged until the frame's detect() calls are done) and computes the
+  /// object box over the finite coordinates. Cost O(n); tet bounds wait for prepare().
+  /// @throws std::invalid_argument when positions.cols() != n
+  void set_positions(const Positions& positions);
+
+  /// Computes this frame's tet bounds (and builds or refits the AABB tree for kBvh),
+  /// once per frame; later calls return at once. detect() calls it when needed; call it
+  /// yourself before running detect() on several pairs sharing this body concurrently.
+  void prepare(BroadPhaseKind kind);
+
+  /// Box of the finite node positions of this frame (empty before set_positions()).
+  [[nodiscard]] const Aabb& box() const { return box_; }
+  [[nodiscard]] Index num_nodes() const { return num_nodes_; }
+  [[nodiscard]] Index num_tets() const { return static_cast<Index>(tets_.size()); }
+  [[nodiscard]] std::span<const Tet> tets() const { return tets_; }
+  /// Unique edges (a, b), a < b, sorted: the same list as Topology::edges.
+  [[nodiscard]] std::span<const std::array<Index, 2>> edges() const { return edges_; }
+
+ private:
+  friend class Detector;
+
+  std::vector<Tet> tets_;
+  Index num_nodes_ = 0;
+  std::vector<std::array<Index, 2>> edges_;
+  Csr node_tets_;                                ///< n rows: tets using the node
+  Csr edge_tets_;                                ///< edge rows: tets using the edge
+  std::vector<std::array<Index, 6>> tet_edges_;  ///< m x 6: edge ids (kTetEdges order)
+
+  const Positions* positions_ = nullptr;
+  Aabb box_;
+  TetBounds bounds_;
+  bool bounds_ready_ = false;
+  bool spheres_ready_ = false;
+  AabbTree tree_;
+  bool tree_built_ = false;
+  bool tree_ready_ = false;
+};
+
+/// Runs detection on pairs of bodies, keeping its buffers. Not thread-safe: one
+/// Detector per thread (its inner loops use TBB).
+class Detector {
+ public:
+  explicit Detector(DetectOptions options = {});
+
+  [[nodiscard]] const DetectOptions& options() const { return options_; }
+  void set_options(const DetectOptions& options) { options_ = options; }
+
+  /// Contacts of the ordered pair (a, b) for the current frame of both bodies
+  /// (set_positions() called). When the object boxes do not touch, only that test runs.
+  /// @param[out] out    cleared, then filled (see PairContacts)
+  /// @param[out] stats  optional counts and timings
+  void detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats = nullptr);
+
+  /// Broad-phase candidates of the last detect() call, sorted by (tet_a, tet_b).
+  [[nodiscard]] std::span<const TetPair> candidates() const { return candidates_; }
+
+ private:
+  /// For each marked tet of X (sorted), the sorted list of tets of Y it overlaps.
+  struct Rows {
+    std::vector<Index> offsets;
+    std::vector<Index> items;
+  };
+  /// Derived geometry of the tets of one body that appear in candidate pairs.
+  struct Geometry {
+    std::vector<Index> tets;        ///< sorted
+    std::vector<TetGeometry> geom;  ///< one per entry of tets
+    std::vector<Index> slot;        ///< scratch, per tet of the body: index or -1
+  };
+  void build_geometry(const CollisionBody& body, Geometry& g);
+  static void clear_slots(Geometry& g);
+  void intruding_nodes(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
+                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingNode>& out);
+  void intruding_edges(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
+                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingEdge>& out);
+  void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
+
+  DetectOptions options_;
+  BroadPhase broad_;
+  std::vector<Index> subset_a_, subset_b_;  ///< tets in the overlap box
+  std::vector<Aabb> boxes_a_, boxes_b_;     ///< their boxes clipped to it
+  std::vector<std::vector<Index>> index_parts_;
+  std::vector<std::vector<Aabb>> box_parts_;
+  std::vector<Index> box_slot_;  ///< scratch: tet of B -> index in subset_b_, or -1
+  std::vector<TetPair> candidates_;
+  std::vector<std::vector<TetPair>> pair_parts_;
+  Geometry geom_a_, geom_b_;
+  std::vector<std::uint64_t> keys_;
+  Rows rows_a_, rows_b_;
+  std::vector<Index> row_of_;       ///< scratch: tet of X -> its row, or -1
+  std::vector<std::uint8_t> seen_;  ///< scratch: feature flags
+  std::vector<Index> features_;
+  std::vector<std::vector<IntrudingNode>> node_parts_;
+  std::vector<std::vector<IntrudingEdge>> edge_parts_;
+};
+
+/// One-off detection between object A (positions_a 3 x n_a metres, tets_a m_a tets,
+/// topology_a) and object B. Builds two CollisionBody and a Detector; for repeated
+/// frames keep those instead.
+PairContacts detect_pair(const Positions& positions_a, std::span<const Tet> tets_a,
+                         const Topology& topology_a, const Positions& positions_b,
+                         std::span<const Tet> tets_b, const Topology& topology_b,
+                         const DetectOptions& options = {}, DetectStats* stats = nullptr);
+
+/// The object pairs (i, j), i < j, of a scene whose boxes touch and that `enabled` allows
+/// (e.g. not two static objects); sorted. An empty `enabled` allows every pair.
+std::vector<std::pair<Index, Index>> touching_object_pairs(
+    std::span<const Aabb> boxes, const std::function<bool(Index, Index)>& enabled = {});
+
+}  // namespace tc

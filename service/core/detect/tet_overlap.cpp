@@ -1,0 +1,338 @@
+#include "core/detect/tet_overlap.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/mesh/geometry.hpp"
+
+namespace tc {
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+/// 6|V| <= kFlat * L^3: the tet is flat up to rounding.
+constexpr double kFlat = 32.0 * kEps;
+/// Two edges with sin(angle) at most this are treated as parallel: their cross product
+/// is still tested, and so is the offset direction between their lines.
+constexpr double kParallelSin = 1e-12;
+
+/// The two faces adjacent to each edge (kTetEdges order): the faces opposite the two
+/// corners the edge does not use.
+constexpr int kEdgeFaces[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+/// Gauss-map arc tests closer to zero than this count as "may intersect".
+constexpr double kArcEps = 1e-9;
+
+/// True when the Gauss-map arcs of an edge of A and an edge of -B certainly do not
+/// cross, i.e. the edge pair spans no face of the Minkowski difference A - B, so its
+/// cross product cannot be the separating (or the penetration-depth) axis. s1, s2: the
+/// normals of -B's edge against A's arc plane; s3, s4: A's normals against -B's.
+inline bool arcs_disjoint(double s1, double s2, double s3, double s4) {
+  const auto clear = [](double u, double v) {
+    return std::abs(u) > kArcEps && std::abs(v) > kArcEps;
+  };
+  return (s1 * s2 > 0.0 && clear(s1, s2)) || (s3 * s4 > 0.0 && clear(s3, s4)) ||
+         (s1 * s4 < 0.0 && clear(s1, s4));
+}
+
+/// Scalar dot and cross products: Eigen's packet code for unaligned 3-vectors spends
+/// more time shuffling than multiplying in these small hot loops.
+inline double dot3(const Vector3d& a, const Vector3d& b) {
+  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
+}
+inline Vector3d cross3(const Vector3d& a, const Vector3d& b) {
+  return {a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(),
+          a.x() * b.y() - a.y() * b.x()};
+}
+
+/// Any direction perpendicular to a non-zero e.
+Vector3d any_perpendicular(const Vector3d& e) {
+  const Vector3d a = e.cwiseAbs();
+  Vector3d axis = Vector3d::Zero();
+  if (a.x() <= a.y() && a.x() <= a.z())
+    axis.x() = 1.0;
+  else if (a.y() <= a.z())
+    axis.y() = 1.0;
+  else
+    axis.z() = 1.0;
+  return e.cross(axis);
+}
+
+inline void project(const Vector3d (&v)[4], const Vector3d& n, double& lo, double& hi) {
+  const double p0 = dot3(n, v[0]), p1 = dot3(n, v[1]), p2 = dot3(n, v[2]), p3 = dot3(n, v[3]);
+  lo = std::min(std::min(p0, p1), std::min(p2, p3));
+  hi = std::max(std::max(p0, p1), std::max(p2, p3));
+}
+
+/// Walks the separating-axis candidates of two tets, in coordinates relative to the
+/// first corner of A. In early-exit mode it answers "overlap by more than tol?" and
+/// stops at the first separating axis (or at a corner deeper than tol inside the other
+/// tet); otherwise it returns the minimum penetration over all axes.
+template <bool kEarly>
+class Sat {
+ public:
+  Sat(const TetGeometry& a, const TetGeometry& b, double tol) : ga_(a), gb_(b), tol_(tol) {
+    const Vector3d o = a.v[0];
+    for (int i = 0; i < 4; ++i) {
+      a_[i] = a.v[i] - o;
+      b_[i] = b.v[i] - o;
+    }
+  }
+
+  /// kEarly: true when the tets overlap by more than tol. Else: see best().
+  bool run() {
+    // Coordinate axes (the boxes) first: cheapest.
+    for (int d = 0; d < 3; ++d)
+      if (record(std::min(ga_.hi[d] - gb_.lo[d], gb_.hi[d] - ga_.lo[d]), 1.0)) return false;
+    // Face normals of the larger tet first: they separate most pairs.
+    const bool b_first = gb_.scale > ga_.scale;
+    if (b_first ? faces(gb_, b_, a_) : faces(ga_, a_, b_)) return kEarly ? accepted_ : false;
+    if (b_first ? faces(ga_, a_, b_) : faces(gb_, b_, a_)) return kEarly ? accepted_ : false;
+    if (!ga_.flat && !gb_.flat) {
+      // Only edge pairs whose Gauss-map arcs cross span faces of the Minkowski
+      // difference; the other cross products can neither separate the tets when these
+      // do not, nor give a smaller penetration (Gregorius, GDC 2013).
+      double da[4][6], db[4][6];  // da[f][j] = unit normal f of A . arc j of B
+      for (int f = 0; f < 4; ++f) {
+        const Vector3d ua = ga_.n[f] * ga_.n_inv[f];
+        const Vector3d ub = gb_.n[f] * gb_.n_inv[f];
+        for (int k = 0; k < 6; ++k) {
+          da[f][k] = dot3(ua, gb_.arc[k]);
+          db[f][k] = dot3(ub, ga_.arc[k]);
+        }
+      }
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+          const double s1 = -db[kEdgeFaces[j][0]][i], s2 = -db[kEdgeFaces[j][1]][i];
+          const double s3 = da[kEdgeFaces[i][0]][j], s4 = da[kEdgeFaces[i][1]][j];
+          if (arcs_disjoint(s1, s2, s3, s4)) continue;
+          if (axis(cross3(ga_.e[i], gb_.e[j]))) return false;
+        }
+      return true;
+    }
+    // A flat tet has no proper Gauss map: every edge pair, with fallbacks for parallel
+    // and zero-length edges, and the centroid direction (the only axis left when both
+    // tets collapse to points).
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j)
+        if (edge_pair(i, j)) return false;
+    const Vector3d d = (b_[0] + b_[1] + b_[2] + b_[3]) - (a_[0] + a_[1] + a_[2] + a_[3]);
+    return !axis(d);
+  }
+
+  [[nodiscard]] double best() const { return best_; }
+
+ private:
+  /// Records the penetration `pen` along an axis of length `len`; true to stop.
+  bool record(double pen, double len) {
+    if constexpr (kEarly) {
+      return !(pen > tol_ * len);
+    } else {
+      best_ = std::min(best_, pen / len);
+      return false;
+    }
+  }
+
+  bool axis(const Vector3d& n) {
+    const double nn = dot3(n, n);
+    if (!(nn > 0.0) || !std::isfinite(nn)) return false;
+    double alo, ahi, blo, bhi;
+    project(a_, n, alo, ahi);
+    project(b_, n, blo, bhi);
+    return record(std::min(ahi - blo, bhi - alo), std::sqrt(nn));
+  }
+
+  /// Face normals of tet `g` (local corners `f`) against the local corners `o` of the
+  /// other tet. Returns true to stop: separated, or (kEarly) a corner of the other tet
+  /// lies deeper than tol inside `g` (then accepted_ is set).
+  bool faces(const TetGeometry& g, const Vector3d (&f)[4], const Vector3d (&o)[4]) {
+    bool deep[4] = {!g.flat, !g.flat, !g.flat, !g.flat};
+    for (int k = 0; k < 4; ++k) {
+      const Vector3d& n = g.n[k];
+      const double len = g.n_len[k];
+      if (!(len > 0.0) || !std::isfinite(len)) {
+        deep[0] = deep[1] = deep[2] = deep[3] = false;
+        continue;
+      }
+      const double c = dot3(n, f[kTetFaces[k][0]]);
+      const double opp = dot3(n, f[k]);
+      const double p0 = dot3(n, o[0]), p1 = dot3(n, o[1]), p2 = dot3(n, o[2]), p3 = dot3(n, o[3]);
+      const double olo = std::min(std::min(p0, p1), std::min(p2, p3));
+      const double ohi = std::max(std::max(p0, p1), std::max(p2, p3));
+      if (record(std::min(std::max(c, opp) - olo, ohi - std::min(c, opp)), len)) return true;
+      if constexpr (kEarly) {
+        const double depth = c - tol_ * len;  // outward normal: inside means below c
+        deep[0] = deep[0] && p0 < depth;
+        deep[1] = deep[1] && p1 < depth;
+        deep[2] = deep[2] && p2 < depth;
+        deep[3] = deep[3] && p3 < depth;
+      }
+    }
+    if constexpr (kEarly) {
+      if (deep[0] || deep[1] || deep[2] || deep[3]) {
+        accepted_ = true;
+        return true;
+      }
+    }
+    return false;
+  }
+
+  bool edge_pair(int i, int j) {
+    const Vector3d& ea = ga_.e[i];
+    const Vector3d& eb = gb_.e[j];
+    const Vector3d n = ea.cross(eb);
+    if (axis(n)) return true;
+    const double limit = kParallelSin * kParallelSin * ga_.e2[i] * gb_.e2[j];
+    if (n.squaredNorm() > limit) return false;
+    // Parallel (or zero-length) edges: the direction from one line to the other,
+    // perpendicular to the longer edge.
+    const Vector3d d = b_[kTetEdges[j][0]] - a_[kTetEdges[i][0]];
+    const bool a_longer = ga_.e2[i] >= gb_.e2[j];
+    const Vector3d& e = a_longer ? ea : eb;
+    const double e2 = a_longer ? ga_.e2[i] : gb_.e2[j];
+    if (!(e2 > 0.0)) return axis(d);
+    const Vector3d perp = d - (d.dot(e) / e2) * e;
+    if (perp.squaredNorm() > kEps * kEps * d.squaredNorm() && axis(perp)) return true;
+    return axis(any_perpendicular(e));
+  }
+
+  const TetGeometry& ga_;
+  const TetGeometry& gb_;
+  Vector3d a_[4], b_[4];
+  double tol_;
+  double best_ = kInf;
+  bool accepted_ = false;
+};
+
+}  // namespace
+
+TetGeometry make_tet_geometry(const TetCorners& t) {
+  TetGeometry g;
+  g.v = t;
+  g.lo = g.hi = t[0];
+  for (int i = 1; i < 4; ++i) {
+    g.lo = g.lo.cwiseMin(t[i]);
+    g.hi = g.hi.cwiseMax(t[i]);
+  }
+  g.scale = (g.hi - g.lo).maxCoeff();
+  for (int k = 0; k < 6; ++k) {
+    g.e[k] = t[kTetEdges[k][1]] - t[kTetEdges[k][0]];
+    g.e2[k] = g.e[k].squaredNorm();
+  }
+  // kTetEdges[0..2] = (0,1), (0,2), (0,3).
+  const double det = g.e[0].dot(g.e[1].cross(g.e[2]));
+  g.flat = !(std::abs(det) > kFlat * g.scale * g.scale * g.scale);
+  const double sign = det < 0.0 ? -1.0 : 1.0;
+  for (int k = 0; k < 4; ++k) {
+    const auto& f = kTetFaces[k];
+    g.n[k] = sign * (t[f[1]] - t[f[0]]).cross(t[f[2]] - t[f[0]]);
+    g.n_len[k] = g.n[k].norm();
+    g.n_inv[k] = g.n_len[k] > 0.0 ? 1.0 / g.n_len[k] : 0.0;
+    if (!(g.n_len[k] > 0.0) || !std::isfinite(g.n_len[k])) g.flat = true;
+  }
+  for (int k = 0; k < 6; ++k) {
+    const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+    g.arc[k] = (g.n[p] * g.n_inv[p]).cross(g.n[q] * g.n_inv[q]);
+  }
+  if (!(t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite())) {
+    // An empty box: separated from everything on the first axis.
+    g.lo.setConstant(kInf);
+    g.hi.setConstant(-kInf);
+    g.scale = 0.0;
+    g.flat = true;
+  }
+  return g;
+}
+
+double tet_scale(const TetCorners& t) {
+  Vector3d lo = t[0], hi = t[0];
+  for (int i = 1; i < 4; ++i) {
+    lo = lo.cwiseMin(t[i]);
+    hi = hi.cwiseMax(t[i]);
+  }
+  return (hi - lo).maxCoeff();
+}
+
+double pair_scale(const TetCorners& a, const TetCorners& b) {
+  Vector3d lo = a[0], hi = a[0];
+  for (int i = 0; i < 4; ++i) {
+    lo = lo.cwiseMin(a[i]).cwiseMin(b[i]);
+    hi = hi.cwiseMax(a[i]).cwiseMax(b[i]);
+  }
+  return (hi - lo).maxCoeff();
+}
+
+double sat_penetration(const TetCorners& a, const TetCorners& b) {
+  const TetGeometry ga = make_tet_geometry(a), gb = make_tet_geometry(b);
+  Sat<false> sat(ga, gb, 0.0);
+  sat.run();
+  return sat.best();
+}
+
+bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) {
+  Sat<true> sat(a, b, std::max(tolerance, 0.0));
+  return sat.run();
+}
+
+bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance) {
+  return tets_overlap(make_tet_geometry(a), make_tet_geometry(b), tolerance);
+}
+
+PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double tolerance) {
+  PointInTet out;
+  if (t.flat) return out;
+  // w_k = 6 x volume of the tet with corner k replaced by p (sign of a positive tet):
+  // -n_k . (p - face_k) with outward n_k.
+  Eigen::Vector4d w;
+  const double tol = std::max(tolerance, 0.0);
+  for (int k = 0; k < 4; ++k) {
+    w[k] = -dot3(t.n[k], p - t.v[kTetFaces[k][0]]);
+    if (!(w[k] >= -tol * t.n_len[k])) return out;  // outside face k (or NaN)
+  }
+  const double total = w.sum();
+  if (!(total > 0.0)) return out;
+  out.inside = true;
+  out.bary = w / total;
+  return out;
+}
+
+PointInTet point_in_tet(const Eigen::Vector3d& p, const TetCorners& t, double tolerance) {
+  return point_in_tet(p, make_tet_geometry(t), tolerance);
+}
+
+SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                             const TetGeometry& t, double tolerance) {
+  SegmentClip out;
+  const double tol = std::max(tolerance, 0.0);
+  const double length = (p1 - p0).norm();
+  if (!(length > tol) || !std::isfinite(length) || t.flat) return out;
+  double lambda_in = 0.0, lambda_out = 1.0;
+  for (int k = 0; k < 4; ++k) {
+    // Signed distances outside face k, metres; within tol of the plane counts as on it.
+    const Vector3d& f = t.v[kTetFaces[k][0]];
+    double d0 = dot3(t.n[k], p0 - f) * t.n_inv[k];
+    double d1 = dot3(t.n[k], p1 - f) * t.n_inv[k];
+    if (std::abs(d0) <= tol) d0 = 0.0;
+    if (std::abs(d1) <= tol) d1 = 0.0;
+    if (!(d0 <= 0.0 || d1 <= 0.0)) return out;  // both outside (or NaN)
+    if (d0 > 0.0) {
+      lambda_in = std::max(lambda_in, d0 / (d0 - d1));  // entering: d0 > 0 >= d1
+    } else if (d1 > 0.0) {
+      lambda_out = std::min(lambda_out, d0 / (d0 - d1));  // leaving: d0 <= 0 < d1
+    }
+  }
+  if (!((lambda_out - lambda_in) * length > tol)) return out;
+  out.hit = true;
+  out.lambda_in = lambda_in;
+  out.lambda_out = lambda_out;
+  return out;
+}
+
+SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                             const TetCorners& t, double tolerance) {
+  return clip_segment_tet(p0, p1, make_tet_geometry(t), tolerance);
+}
+
+}  // namespace tc

@@ -1,0 +1,114 @@
+// Exact primitive tests of the narrow phase: tet-tet overlap (separating axes),
+// point-in-tet with barycentric coordinates, and segment-vs-tet clipping.
+//
+// Tolerance (docs/DETECTION.md): every test takes an absolute distance tolerance in
+// metres. Detection derives it from a relative one, tol = relative_tolerance * scale,
+// where scale is the largest bounding-box extent of the primitives involved, so the
+// answers do not change with translation (1e6 offsets) or scale (1e-6 objects).
+// Touching never counts: two tets overlap only when they penetrate by more than tol.
+// Every function is computed in coordinates relative to one corner of the inputs, never
+// divides by a quantity that can be zero, and returns no NaN for finite input.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+
+#include "core/mesh/tet_mesh.hpp"
+
+namespace tc {
+
+/// The four corners of a tet, in the tet's node order.
+using TetCorners = std::array<Eigen::Vector3d, 4>;
+
+/// Default relative tolerance of detection (times the local length scale).
+inline constexpr double kDefaultRelativeTolerance = 1e-9;
+
+/// Corners of tet `tet` (node indices into `positions`, 3 x n, metres).
+inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
+  return {positions.col(tet[0]), positions.col(tet[1]), positions.col(tet[2]),
+          positions.col(tet[3])};
+}
+
+/// A tet with the derived geometry the tests below use, computed once per tet and frame
+/// so that a tet tested against many others does not redo it.
+struct TetGeometry {
+  TetCorners v;                      ///< corners, metres
+  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order
+  std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
+                                     ///< outward unless flat
+  std::array<double, 6> e2;          ///< squared edge lengths
+  /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
+  /// the other), kTetEdges order; unused when flat.
+  std::array<Eigen::Vector3d, 6> arc;
+  std::array<double, 4> n_len;  ///< |n|
+  std::array<double, 4> n_inv;  ///< 1 / |n| (0 when |n| = 0)
+  Eigen::Vector3d lo, hi;       ///< bounding box
+  double scale = 0.0;           ///< largest box extent
+  bool flat = true;             ///< 6|V| <= 32 eps scale^3 (or non-finite)
+};
+
+/// Derived geometry of a tet given by its corners.
+TetGeometry make_tet_geometry(const TetCorners& t);
+
+/// Largest extent of the bounding box of the corners of `a` and `b` (metres): the length
+/// scale the tolerance of a tet pair is relative to.
+double pair_scale(const TetCorners& a, const TetCorners& b);
+inline double pair_scale(const TetGeometry& a, const TetGeometry& b) {
+  return (a.hi.cwiseMax(b.hi) - a.lo.cwiseMin(b.lo)).maxCoeff();
+}
+
+/// Largest extent of the bounding box of a tet's corners (metres).
+double tet_scale(const TetCorners& t);
+
+/// Penetration depth of two tets measured by separating axes, metres.
+///
+/// For every candidate axis u (3 coordinate axes, 4 + 4 face normals, 36 edge-edge cross
+/// products, plus fallbacks for parallel or zero-length edges and the centroid direction)
+/// it takes the distance by which one tet must move along u to clear the other,
+/// min(max_a - min_b, max_b - min_a) / |u|, and returns the minimum over the axes. For
+/// non-degenerate tets this is the exact penetration depth (the Minkowski difference
+/// has no other face normals); it is <= 0 when the tets are disjoint or touch.
+double sat_penetration(const TetCorners& a, const TetCorners& b);
+
+/// True when the tets penetrate by more than `tolerance` (metres, >= 0): the same as
+/// sat_penetration(a, b) > tolerance, with early exits (a separating axis, or a corner of
+/// one tet deeper than `tolerance` inside the other). Shared faces, coplanar faces on
+/// opposite sides, and touching vertices or edges are not overlaps. A zero-volume tet
+/// lying inside the other one is an overlap (it has to move to get out).
+bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance);
+bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance);
+
+/// Result of point_in_tet().
+struct PointInTet {
+  bool inside = false;
+  /// Barycentric coordinates (weights of the tet's 4 corners, summing to 1); only set
+  /// when inside. Each is >= -tolerance / (height of that corner over its opposite face).
+  Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+};
+
+/// Closed point-in-tet test: p is inside when its distance outside each face plane is at
+/// most `tolerance` (metres). A point on a face shared by two tets is inside both. Flat
+/// tets (TetGeometry::flat) contain no point. Works for either orientation of the tet.
+PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double tolerance);
+PointInTet point_in_tet(const Eigen::Vector3d& p, const TetCorners& t, double tolerance);
+
+/// Result of clip_segment_tet().
+struct SegmentClip {
+  bool hit = false;
+  /// The part of the segment inside the tet is x = p0 + lambda (p1 - p0) for lambda in
+  /// [lambda_in, lambda_out], 0 <= lambda_in < lambda_out <= 1; only set on a hit.
+  double lambda_in = 0.0;
+  double lambda_out = 0.0;
+};
+
+/// Cyrus-Beck clipping of the segment [p0, p1] against the 4 face planes of the tet.
+/// Endpoint distances within `tolerance` (metres) of a plane count as on it, so a segment
+/// lying in a face is inside. A hit needs an inside part longer than `tolerance`:
+/// segments that only touch a corner or an edge of the tet do not hit. Zero-length
+/// segments and flat tets never hit.
+SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                             const TetGeometry& t, double tolerance);
+SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                             const TetCorners& t, double tolerance);
+
+}  // namespace tc

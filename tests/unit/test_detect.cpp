@@ -1,0 +1,490 @@
+// service/core/detect/detect: the whole stage against brute force over all tet pairs,
+// every broad phase, touching and nested objects, thread-count independence, offsets
+// and scales, and the reusable Detector across frames.
+#include "core/detect/detect.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Geometry>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include "core/mesh/geometry.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kRel = kDefaultRelativeTolerance;
+
+TetMesh moved(TetMesh m, const Eigen::Matrix3d& rotation, const Vector3d& offset,
+              double scale = 1.0) {
+  for (Eigen::Index i = 0; i < m.positions.cols(); ++i)
+    m.positions.col(i) = scale * (rotation * m.positions.col(i)) + offset;
+  return m;
+}
+
+Eigen::Matrix3d random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  return q.normalized().toRotationMatrix();
+}
+
+struct Object {
+  TetMesh mesh;
+  Topology topo;
+  explicit Object(TetMesh m)
+      : mesh(std::move(m)), topo(build_topology(mesh.tets, mesh.num_nodes())) {}
+};
+
+PairContacts run(const Object& a, const Object& b, DetectOptions opt = {},
+                 DetectStats* stats = nullptr) {
+  return detect_pair(a.mesh.positions, a.mesh.tets, a.topo, b.mesh.positions, b.mesh.tets, b.topo,
+                     opt, stats);
+}
+
+// ------------------------------------------------------------------ brute-force reference
+
+/// The contract of PairContacts, computed the slow way: all pairs, every node, every edge.
+PairContacts brute_force(const Object& a, const Object& b) {
+  PairContacts out;
+  const auto& ma = a.mesh;
+  const auto& mb = b.mesh;
+  std::set<std::pair<Index, Index>> ov;
+  for (Index ta = 0; ta < ma.num_tets(); ++ta)
+    for (Index tb = 0; tb < mb.num_tets(); ++tb) {
+      const TetCorners ca = tet_corners(ma.positions, ma.tets[ta]);
+      const TetCorners cb = tet_corners(mb.positions, mb.tets[tb]);
+      if (tets_overlap(ca, cb, kRel * pair_scale(ca, cb))) {
+        out.overlapping.push_back({ta, tb});
+        ov.insert({ta, tb});
+      }
+    }
+  std::set<Index> sa, sb;
+  for (const auto& p : out.overlapping) {
+    sa.insert(p.tet_a);
+    sb.insert(p.tet_b);
+  }
+  out.marked_a.assign(sa.begin(), sa.end());
+  out.marked_b.assign(sb.begin(), sb.end());
+
+  for (int side = 0; side < 2; ++side) {
+    const Object& x = side == 0 ? a : b;
+    const Object& y = side == 0 ? b : a;
+    const auto overlaps = [&](Index tx, Index ty) {
+      return side == 0 ? ov.count({tx, ty}) > 0 : ov.count({ty, tx}) > 0;
+    };
+    auto& nodes = side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a;
+    for (Index n = 0; n < x.mesh.num_nodes(); ++n)
+      for (Index ty = 0; ty < y.mesh.num_tets(); ++ty) {
+        bool near = false;
+        for (const Index tx : x.topo.node_tets.row(n)) near = near || overlaps(tx, ty);
+        if (!near) continue;
+        const TetCorners ct = tet_corners(y.mesh.positions, y.mesh.tets[ty]);
+        const PointInTet r = point_in_tet(x.mesh.positions.col(n), ct, kRel * tet_scale(ct));
+        if (r.inside) {
+          nodes.push_back({n, ty, r.bary});
+          break;
+        }
+      }
+    auto& edges = side == 0 ? out.edges_a_in_b : out.edges_b_in_a;
+    for (Index e = 0; e < static_cast<Index>(x.topo.edges.size()); ++e) {
+      const auto [u, v] = x.topo.edges[e];
+      const Vector3d p0 = x.mesh.positions.col(u), p1 = x.mesh.positions.col(v);
+      const double len = (p1 - p0).norm();
+      const std::size_t first = edges.size();
+      for (Index ty = 0; ty < y.mesh.num_tets(); ++ty) {
+        bool near = false;
+        for (Index tx = 0; tx < x.mesh.num_tets(); ++tx) {
+          const Tet& t = x.mesh.tets[tx];
+          const bool has = std::count(t.begin(), t.end(), u) && std::count(t.begin(), t.end(), v);
+          near = near || (has && overlaps(tx, ty));
+        }
+        if (!near) continue;
+        const TetCorners ct = tet_corners(y.mesh.positions, y.mesh.tets[ty]);
+        const double tol = kRel * std::max(tet_scale(ct), len);
+        const SegmentClip c = clip_segment_tet(p0, p1, ct, tol);
+        if (!c.hit) continue;
+        bool repeated = false;
+        for (std::size_t k = first; k < edges.size(); ++k)
+          repeated = repeated || (std::abs(edges[k].lambda_in - c.lambda_in) <= tol / len &&
+                                  std::abs(edges[k].lambda_out - c.lambda_out) <= tol / len);
+        if (!repeated) edges.push_back({e, ty, c.lambda_in, c.lambda_out});
+      }
+    }
+  }
+  return out;
+}
+
+void expect_same_nodes(const std::vector<IntrudingNode>& got,
+                       const std::vector<IntrudingNode>& want, const char* what) {
+  ASSERT_EQ(got.size(), want.size()) << what;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].node, want[i].node) << what << " " << i;
+    EXPECT_EQ(got[i].tet, want[i].tet) << what << " " << i;
+    EXPECT_EQ(got[i].bary, want[i].bary) << what << " " << i;
+  }
+}
+
+void expect_same_edges(const std::vector<IntrudingEdge>& got,
+                       const std::vector<IntrudingEdge>& want, const char* what) {
+  ASSERT_EQ(got.size(), want.size()) << what;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].edge, want[i].edge) << what << " " << i;
+    EXPECT_EQ(got[i].tet, want[i].tet) << what << " " << i;
+    EXPECT_EQ(got[i].lambda_in, want[i].lambda_in) << what << " " << i;
+    EXPECT_EQ(got[i].lambda_out, want[i].lambda_out) << what << " " << i;
+  }
+}
+
+/// Bit-for-bit equality of two results.
+void expect_identical(const PairContacts& got, const PairContacts& want) {
+  EXPECT_EQ(got.overlapping, want.overlapping);
+  EXPECT_EQ(got.marked_a, want.marked_a);
+  EXPECT_EQ(got.marked_b, want.marked_b);
+  expect_same_nodes(got.nodes_a_in_b, want.nodes_a_in_b, "nodes_a_in_b");
+  expect_same_nodes(got.nodes_b_in_a, want.nodes_b_in_a, "nodes_b_in_a");
+  expect_same_edges(got.edges_a_in_b, want.edges_a_in_b, "edges_a_in_b");
+  expect_same_edges(got.edges_b_in_a, want.edges_b_in_a, "edges_b_in_a");
+}
+
+/// Sorted, duplicate-free and within the documented ranges.
+void expect_well_formed(const PairContacts& c) {
+  EXPECT_TRUE(std::is_sorted(c.overlapping.begin(), c.overlapping.end()));
+  EXPECT_TRUE(std::adjacent_find(c.overlapping.begin(), c.overlapping.end()) ==
+              c.overlapping.end());
+  for (const auto* nodes : {&c.nodes_a_in_b, &c.nodes_b_in_a})
+    for (std::size_t i = 0; i < nodes->size(); ++i) {
+      const auto& n = (*nodes)[i];
+      if (i > 0) {
+        EXPECT_LT((*nodes)[i - 1].node, n.node);
+      }
+      EXPECT_FALSE(n.bary.hasNaN());
+      EXPECT_NEAR(n.bary.sum(), 1.0, 1e-9);
+      EXPECT_GE(n.bary.minCoeff(), -1e-6);
+    }
+  for (const auto* edges : {&c.edges_a_in_b, &c.edges_b_in_a})
+    for (std::size_t i = 0; i < edges->size(); ++i) {
+      const auto& e = (*edges)[i];
+      if (i > 0) {
+        const auto& p = (*edges)[i - 1];
+        EXPECT_TRUE(p.edge < e.edge || (p.edge == e.edge && p.tet < e.tet));
+      }
+      EXPECT_LE(0.0, e.lambda_in);
+      EXPECT_LT(e.lambda_in, e.lambda_out);
+      EXPECT_LE(e.lambda_out, 1.0);
+    }
+}
+
+const auto kAllKinds = ::testing::Values(BroadPhaseKind::kGrid, BroadPhaseKind::kHash,
+                                         BroadPhaseKind::kSap, BroadPhaseKind::kBvh);
+
+std::string kind_name(const ::testing::TestParamInfo<BroadPhaseKind>& info) {
+  return std::string(broad_phase_name(info.param));
+}
+
+// ------------------------------------------------------------------------------- tests
+
+class DetectEachBroadPhase : public ::testing::TestWithParam<BroadPhaseKind> {};
+
+TEST_P(DetectEachBroadPhase, RandomPosesMatchBruteForce) {
+  std::mt19937 rng(2004);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  // Boxes centred on the origin, rotated about their centres.
+  const TetMesh box =
+      test::structured_box(4, 3, 3, Vector3d(-0.5, -0.4, -0.35), Vector3d(0.5, 0.4, 0.35));
+  const TetMesh other =
+      test::structured_box(3, 3, 2, Vector3d(-0.3, -0.3, -0.25), Vector3d(0.3, 0.3, 0.25));
+  DetectOptions opt;
+  opt.broad_phase = GetParam();
+  int with_contacts = 0;
+  for (int pose = 0; pose < 8; ++pose) {
+    const Object a(moved(box, random_rotation(rng), Vector3d(u(rng), u(rng), u(rng))));
+    const Object b(moved(other, random_rotation(rng), Vector3d(0.3 + u(rng), u(rng), u(rng))));
+    DetectStats st;
+    const PairContacts got = run(a, b, opt, &st);
+    const PairContacts want = brute_force(a, b);
+    expect_identical(got, want);
+    expect_well_formed(got);
+    EXPECT_EQ(st.overlapping, got.overlapping.size());
+    EXPECT_GE(st.candidates, st.overlapping);
+    with_contacts += !got.empty();
+  }
+  EXPECT_GE(with_contacts, 6);
+}
+
+TEST_P(DetectEachBroadPhase, AlignedGridsMatchBruteForce) {
+  // Same spacing, offset by whole cells: faces, edges and nodes of A lie exactly on
+  // those of B (shared planes everywhere).
+  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(test::structured_box(4, 4, 4, Vector3d(0.5, 0.25, 0.5), Vector3d(1.5, 1.25, 1.5)));
+  DetectOptions opt;
+  opt.broad_phase = GetParam();
+  const PairContacts got = run(a, b, opt);
+  expect_identical(got, brute_force(a, b));
+  expect_well_formed(got);
+  EXPECT_FALSE(got.edges_a_in_b.empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(Detect, DetectEachBroadPhase, kAllKinds, kind_name);
+
+TEST(Detect, EveryBroadPhaseGivesTheSameContacts) {
+  std::mt19937 rng(11);
+  const Vector3d h(0.5, 0.5, 0.5);
+  const Object a(
+      moved(test::structured_box(6, 6, 6, -h, h), random_rotation(rng), Vector3d::Zero()));
+  const Object b(
+      moved(test::structured_box(5, 5, 5, -h, h), random_rotation(rng), Vector3d(0.5, 0.4, 0.3)));
+  DetectOptions opt;
+  opt.broad_phase = BroadPhaseKind::kGrid;
+  const PairContacts ref = run(a, b, opt);
+  EXPECT_GT(ref.overlapping.size(), 100u);
+  for (const auto k : {BroadPhaseKind::kHash, BroadPhaseKind::kSap, BroadPhaseKind::kBvh}) {
+    opt.broad_phase = k;
+    expect_identical(run(a, b, opt), ref);
+  }
+}
+
+TEST(Detect, StackedBoxesTouchWithoutOverlap) {
+  // B sits exactly on A's top face (z = 1), grids aligned and not.
+  const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  for (const int n : {3, 4}) {
+    const Object b(test::structured_box(n, n, 2, Vector3d(0, 0, 1), Vector3d(1, 1, 2)));
+    DetectStats st;
+    const PairContacts c = run(a, b, {}, &st);
+    EXPECT_TRUE(st.boxes_overlap);
+    EXPECT_GT(st.candidates, 0u);
+    EXPECT_TRUE(c.empty()) << c.overlapping.size() << " overlaps for n = " << n;
+    EXPECT_TRUE(c.nodes_a_in_b.empty());
+    EXPECT_TRUE(c.edges_b_in_a.empty());
+  }
+}
+
+TEST(Detect, PushedAcrossTheToleranceOverlap) {
+  const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  for (const double push : {1e-12, 1e-6, 1e-3}) {
+    const Object b(
+        test::structured_box(3, 3, 2, Vector3d(0, 0, 1 - push), Vector3d(1, 1, 2 - push)));
+    const PairContacts c = run(a, b);
+    if (push < kRel) {
+      EXPECT_TRUE(c.empty()) << push;
+    } else {
+      EXPECT_FALSE(c.empty()) << push;
+      // Every bottom node of B is in A, on the shared top face of A's tets.
+      EXPECT_EQ(c.nodes_b_in_a.size(), 16u) << push;
+      EXPECT_EQ(c.nodes_a_in_b.size(), 16u) << push;  // and every top node of A in B
+    }
+  }
+}
+
+TEST(Detect, NestedBoxIsEntirelyInside) {
+  for (const bool aligned : {true, false}) {
+    const Object outer(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+    const Vector3d lo = aligned ? Vector3d(0.25, 0.25, 0.25) : Vector3d(0.21, 0.33, 0.27);
+    const Object inner(test::structured_box(3, 2, 2, lo, lo + Vector3d(0.5, 0.5, 0.5)));
+    const PairContacts c = run(inner, outer);
+    expect_well_formed(c);
+    EXPECT_EQ(c.marked_a.size(), static_cast<std::size_t>(inner.mesh.num_tets()));
+    EXPECT_EQ(c.nodes_a_in_b.size(), static_cast<std::size_t>(inner.mesh.num_nodes()));
+    // Nodes of the outer box inside the closed inner one, and only those.
+    std::size_t inside = 0;
+    for (Index n = 0; n < outer.mesh.num_nodes(); ++n) {
+      const Vector3d p = outer.mesh.positions.col(n);
+      inside += ((p - lo).array() >= -1e-12).all() &&
+                ((lo + Vector3d::Constant(0.5) - p).array() >= -1e-12).all();
+    }
+    EXPECT_EQ(c.nodes_b_in_a.size(), inside);
+    EXPECT_GT(inside, 0u);
+    for (const auto& n : c.nodes_a_in_b) {
+      const TetCorners t = tet_corners(outer.mesh.positions, outer.mesh.tets[n.tet]);
+      const Vector3d p = n.bary[0] * t[0] + n.bary[1] * t[1] + n.bary[2] * t[2] + n.bary[3] * t[3];
+      EXPECT_LT((p - inner.mesh.positions.col(n.node)).norm(), 1e-12);
+    }
+    // Every edge of the inner box is inside the outer one: its intervals cover [0, 1]
+    // exactly once (edges lying on shared faces are not counted twice).
+    std::vector<double> covered(inner.topo.edges.size(), 0.0);
+    for (const auto& e : c.edges_a_in_b) covered[e.edge] += e.lambda_out - e.lambda_in;
+    for (std::size_t e = 0; e < covered.size(); ++e)
+      EXPECT_NEAR(covered[e], 1.0, 1e-9) << "edge " << e << (aligned ? " aligned" : "");
+  }
+}
+
+TEST(Detect, DisjointBoxesCostOnlyTheBoxTest) {
+  const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(test::structured_box(3, 3, 3, Vector3d(1.01, 0, 0), Vector3d(2, 1, 1)));
+  DetectStats st;
+  const PairContacts c = run(a, b, {}, &st);
+  EXPECT_FALSE(st.boxes_overlap);
+  EXPECT_EQ(st.candidates, 0u);
+  EXPECT_EQ(st.tets_a_in_box, 0u);
+  EXPECT_TRUE(c.empty());
+}
+
+TEST(Detect, OptionsSwitchOffNodesAndEdges) {
+  const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
+  DetectOptions opt;
+  const PairContacts full = run(a, b, opt);
+  ASSERT_FALSE(full.nodes_a_in_b.empty());
+  ASSERT_FALSE(full.edges_a_in_b.empty());
+  opt.intruding_nodes = false;
+  PairContacts c = run(a, b, opt);
+  EXPECT_EQ(c.overlapping, full.overlapping);
+  EXPECT_TRUE(c.nodes_a_in_b.empty() && c.nodes_b_in_a.empty());
+  EXPECT_EQ(c.edges_a_in_b.size(), full.edges_a_in_b.size());
+  opt.intruding_edges = false;
+  c = run(a, b, opt);
+  EXPECT_TRUE(c.edges_a_in_b.empty() && c.edges_b_in_a.empty());
+}
+
+class ThreadCount : public ::testing::TestWithParam<BroadPhaseKind> {};
+
+TEST_P(ThreadCount, OutputIsBitIdenticalWith1To4Threads) {
+  std::mt19937 rng(42);
+  const Object a(moved(test::structured_box(12, 12, 12, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
+                       random_rotation(rng), Vector3d::Zero()));
+  const Object b(moved(test::structured_box(10, 10, 10, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
+                       random_rotation(rng), Vector3d(0.6, 0.5, 0.4)));
+  DetectOptions opt;
+  opt.broad_phase = GetParam();
+  std::vector<PairContacts> results;
+  for (const int threads : {1, 2, 3, 4}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { results.push_back(run(a, b, opt)); });
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    results.push_back(run(a, b, opt));
+  }
+  ASSERT_GT(results[0].overlapping.size(), 1000u);
+  for (std::size_t i = 1; i < results.size(); ++i) expect_identical(results[i], results[0]);
+}
+
+INSTANTIATE_TEST_SUITE_P(Detect, ThreadCount, kAllKinds, kind_name);
+
+using Frame = std::tuple<double, double>;  // scale, offset
+
+class OffsetsAndScales : public ::testing::TestWithParam<Frame> {};
+
+TEST_P(OffsetsAndScales, SameContactsAsAtTheOrigin) {
+  const auto [scale, offset] = GetParam();
+  std::mt19937 rng(31);
+  const TetMesh ma = moved(test::structured_box(5, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
+                           random_rotation(rng), Vector3d::Zero());
+  const TetMesh mb = moved(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
+                           random_rotation(rng), Vector3d(0.55, 0.45, 0.35));
+  const Object a0(ma), b0(mb);
+  const PairContacts ref = run(a0, b0);
+  ASSERT_GT(ref.overlapping.size(), 50u);
+  const Vector3d o = Vector3d(1.0, -0.6, 0.8) * offset;
+  const Object a(moved(ma, Eigen::Matrix3d::Identity(), o, scale));
+  const Object b(moved(mb, Eigen::Matrix3d::Identity(), o, scale));
+  const PairContacts c = run(a, b);
+  expect_well_formed(c);
+  EXPECT_EQ(c.overlapping, ref.overlapping);
+  EXPECT_EQ(c.marked_a, ref.marked_a);
+  EXPECT_EQ(c.marked_b, ref.marked_b);
+  ASSERT_EQ(c.nodes_a_in_b.size(), ref.nodes_a_in_b.size());
+  for (std::size_t i = 0; i < c.nodes_a_in_b.size(); ++i) {
+    EXPECT_EQ(c.nodes_a_in_b[i].node, ref.nodes_a_in_b[i].node);
+    EXPECT_LT((c.nodes_a_in_b[i].bary - ref.nodes_a_in_b[i].bary).cwiseAbs().maxCoeff(), 1e-5);
+  }
+  ASSERT_EQ(c.edges_a_in_b.size(), ref.edges_a_in_b.size());
+  for (std::size_t i = 0; i < c.edges_a_in_b.size(); ++i) {
+    EXPECT_EQ(c.edges_a_in_b[i].edge, ref.edges_a_in_b[i].edge);
+    EXPECT_NEAR(c.edges_a_in_b[i].lambda_in, ref.edges_a_in_b[i].lambda_in, 1e-5);
+    EXPECT_NEAR(c.edges_a_in_b[i].lambda_out, ref.edges_a_in_b[i].lambda_out, 1e-5);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Detect, OffsetsAndScales,
+                         ::testing::Values(Frame{1e-6, 0.0}, Frame{1e-3, 0.0}, Frame{1e4, 0.0},
+                                           Frame{1.0, 1e6}, Frame{1e3, 1e6}, Frame{1e-3, 1e3}));
+
+TEST(Detector, ReusedAcrossFramesMatchesOneOffs) {
+  const Object a(test::structured_box(6, 6, 6, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b0(test::structured_box(5, 5, 5, Vector3d(0, 0, 0), Vector3d(0.8, 0.8, 0.8)));
+  for (const auto kind : {BroadPhaseKind::kBvh, BroadPhaseKind::kSap}) {
+    DetectOptions opt;
+    opt.broad_phase = kind;
+    CollisionBody ba(a.mesh.tets, a.topo), bb(b0.mesh.tets, b0.topo);
+    Detector detector(opt);
+    ba.set_positions(a.mesh.positions);
+    for (int frame = 0; frame < 6; ++frame) {
+      // B slides in and twists: the tree built on frame 0 is only refitted.
+      const Eigen::Matrix3d r =
+          Eigen::AngleAxisd(0.3 * frame, Vector3d(0.2, 0.5, 1).normalized()).toRotationMatrix();
+      Object b(moved(b0.mesh, r, Vector3d(1.2 - 0.2 * frame, 0.1, 0.15)));
+      Positions pb = b.mesh.positions;
+      bb.set_positions(pb);
+      PairContacts got;
+      DetectStats st;
+      detector.detect(ba, bb, got, &st);
+      expect_identical(got, run(a, b, opt));
+      if (frame >= 2) {
+        EXPECT_FALSE(got.empty()) << frame;
+      }
+      EXPECT_EQ(detector.candidates().size(), st.candidates);
+    }
+  }
+}
+
+TEST(Detect, NonFiniteNodesAreIgnored) {
+  const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.5, 0.5), Vector3d(1.5, 1.5, 1.5)));
+  b.mesh.positions(0, 21) = std::numeric_limits<double>::quiet_NaN();
+  b.mesh.positions(2, 5) = std::numeric_limits<double>::infinity();
+  const PairContacts c = run(a, b);
+  expect_well_formed(c);
+  EXPECT_FALSE(c.empty());
+  for (const auto& p : c.overlapping)
+    for (const Index v : b.mesh.tets[p.tet_b]) EXPECT_TRUE(v != 21 && v != 5);
+  for (const auto& n : c.nodes_b_in_a) EXPECT_TRUE(n.node != 21 && n.node != 5);
+}
+
+TEST(Detect, DegenerateTetsDoNotBreakAnything) {
+  Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  // Collapse a few nodes onto their neighbours: zero-volume and inverted tets appear.
+  a.mesh.positions.col(21) = a.mesh.positions.col(22);
+  a.mesh.positions.col(26) = 0.5 * (a.mesh.positions.col(25) + a.mesh.positions.col(27));
+  a.mesh.positions.col(37) = a.mesh.positions.col(38) + Vector3d(0.0, 0.0, 1e-14);
+  const Object b(moved(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
+                       Eigen::AngleAxisd(0.4, Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+                       Vector3d(0.4, 0.3, 0.2)));
+  const PairContacts c = run(a, b);
+  expect_well_formed(c);
+  expect_identical(c, brute_force(a, b));
+}
+
+TEST(CollisionBody, RejectsMismatchedInput) {
+  const TetMesh m = test::cube_five_tets();
+  const Topology t = build_topology(m.tets, m.num_nodes());
+  const TetMesh other = test::cube_six_tets();
+  EXPECT_THROW(CollisionBody(other.tets, t), std::invalid_argument);
+  CollisionBody body(m.tets, t);
+  EXPECT_THROW(body.set_positions(Positions::Zero(3, 3)), std::invalid_argument);
+  EXPECT_THROW(body.prepare(BroadPhaseKind::kGrid), std::logic_error);
+  body.set_positions(m.positions);
+  EXPECT_EQ(body.box().lo, Vector3d::Zero());
+  EXPECT_EQ(body.box().hi, Vector3d::Ones());
+}
+
+TEST(TouchingObjectPairs, BoxesAndEnableFlag) {
+  const std::vector<Aabb> boxes = {{Vector3d(0, 0, 0), Vector3d(1, 1, 1)},
+                                   {Vector3d(1, 0, 0), Vector3d(2, 1, 1)},  // touches 0
+                                   {Vector3d(0.5, 0.5, 0.5), Vector3d(3, 3, 3)},
+                                   {Vector3d(5, 5, 5), Vector3d(6, 6, 6)}};  // alone
+  using P = std::pair<Index, Index>;
+  EXPECT_EQ(touching_object_pairs(boxes), (std::vector<P>{{0, 1}, {0, 2}, {1, 2}}));
+  // Objects 0 and 1 static: never tested against each other.
+  const auto enabled = [](Index i, Index j) { return !(i <= 1 && j <= 1); };
+  EXPECT_EQ(touching_object_pairs(boxes, enabled), (std::vector<P>{{0, 2}, {1, 2}}));
+}
+
+}  // namespace
+}  // namespace tc

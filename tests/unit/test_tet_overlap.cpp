@@ -1,0 +1,592 @@
+// service/core/detect/tet_overlap: exact tet-tet overlap, point-in-tet, segment clipping.
+// Checked against an independent sampling oracle (clearance of sample points gives a
+// lower bound of the penetration depth; point-to-tet distances of samples give a lower
+// bound of the distance), against known contacts, and under offsets and scales.
+#include "core/detect/tet_overlap.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <tuple>
+
+#include "core/mesh/geometry.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kTol = 1e-9;  // relative tolerance used throughout
+
+TetCorners unit_tet() {
+  return {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, 1)};
+}
+
+TetCorners transform(const TetCorners& t, double scale, const Vector3d& offset) {
+  TetCorners out;
+  for (int i = 0; i < 4; ++i) out[i] = t[i] * scale + offset;
+  return out;
+}
+
+bool overlap(const TetCorners& a, const TetCorners& b) {
+  return tets_overlap(a, b, kTol * pair_scale(a, b));
+}
+
+// ------------------------------------------------------------------ independent oracle
+
+double diameter_of(const TetCorners& t) {
+  double d = 0.0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) d = std::max(d, (t[i] - t[j]).norm());
+  return d;
+}
+
+/// Signed clearance of p inside t: min over faces of the distance to the face plane,
+/// positive inside (computed from each face and its opposite corner, no shared code).
+double clearance(const Vector3d& p, const TetCorners& t) {
+  // A flat tet has no interior (and its face planes coincide).
+  const double size = diameter_of(t);
+  if (std::abs((t[1] - t[0]).dot((t[2] - t[0]).cross(t[3] - t[0]))) <= 1e-12 * size * size * size)
+    return -std::numeric_limits<double>::infinity();
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k) {
+    const Vector3d& a = t[(k + 1) % 4];
+    const Vector3d& b = t[(k + 2) % 4];
+    const Vector3d& c = t[(k + 3) % 4];
+    Vector3d n = (b - a).cross(c - a);
+    const double len = n.norm();
+    if (len == 0.0) return -std::numeric_limits<double>::infinity();
+    n /= len;
+    if (n.dot(t[k] - a) < 0.0) n = -n;  // point inwards
+    best = std::min(best, n.dot(p - a));
+  }
+  return best;
+}
+
+/// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
+Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3d& b,
+                             const Vector3d& c) {
+  const Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+/// Distance from p to the closed tet t (0 inside).
+double distance_to_tet(const Vector3d& p, const TetCorners& t) {
+  if (clearance(p, t) >= 0.0) return 0.0;
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k)
+    best = std::min(
+        best, (p - closest_on_triangle(p, t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4])).norm());
+  return best;
+}
+
+/// Barycentric lattice of N divisions over a tet.
+std::vector<Vector3d> samples(const TetCorners& t, int n) {
+  std::vector<Vector3d> s;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; i + j <= n; ++j)
+      for (int k = 0; i + j + k <= n; ++k) {
+        const int l = n - i - j - k;
+        s.push_back((i * t[0] + j * t[1] + k * t[2] + l * t[3]) / n);
+      }
+  return s;
+}
+
+struct Oracle {
+  double depth_lower = 0.0;     ///< penetration depth >= this
+  double distance_lower = 0.0;  ///< distance >= this (when > 0: disjoint)
+};
+
+Oracle oracle(const TetCorners& a, const TetCorners& b, int n = 12) {
+  Oracle o;
+  o.depth_lower = -std::numeric_limits<double>::infinity();
+  double dist = std::numeric_limits<double>::infinity();
+  for (const Vector3d& s : samples(a, n)) {
+    o.depth_lower = std::max(o.depth_lower, clearance(s, b));
+    dist = std::min(dist, distance_to_tet(s, b));
+  }
+  for (const Vector3d& s : samples(b, n)) o.depth_lower = std::max(o.depth_lower, clearance(s, a));
+  o.distance_lower = dist - diameter_of(a) / n;
+  return o;
+}
+
+TetCorners random_tet(std::mt19937& rng, double min_quality) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (;;) {
+    TetCorners t;
+    for (auto& p : t) p = Vector3d(u(rng), u(rng), u(rng));
+    if (signed_volume(t[0], t[1], t[2], t[3]) < 0) std::swap(t[2], t[3]);
+    Positions p(3, 4);
+    for (int i = 0; i < 4; ++i) p.col(i) = t[i];
+    if (tet_quality(p, Tet{0, 1, 2, 3}) >= min_quality) return t;
+  }
+}
+
+/// Reference SAT without any shortcut: every coordinate axis, face normal and edge-edge
+/// cross product (written out here, independently of the library).
+double full_sat_penetration(const TetCorners& a, const TetCorners& b) {
+  std::vector<Vector3d> axes = {Vector3d::UnitX(), Vector3d::UnitY(), Vector3d::UnitZ()};
+  const int faces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  for (const TetCorners* t : {&a, &b})
+    for (const auto& f : faces)
+      axes.push_back(((*t)[f[1]] - (*t)[f[0]]).cross((*t)[f[2]] - (*t)[f[0]]));
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j)
+      for (int k = 0; k < 4; ++k)
+        for (int l = k + 1; l < 4; ++l) axes.push_back((a[j] - a[i]).cross(b[l] - b[k]));
+  double best = std::numeric_limits<double>::infinity();
+  for (const Vector3d& u : axes) {
+    if (u.norm() < 1e-14) continue;
+    const Vector3d n = u.normalized();
+    double alo = 1e300, ahi = -1e300, blo = 1e300, bhi = -1e300;
+    for (int i = 0; i < 4; ++i) {
+      alo = std::min(alo, n.dot(a[i]));
+      ahi = std::max(ahi, n.dot(a[i]));
+      blo = std::min(blo, n.dot(b[i]));
+      bhi = std::max(bhi, n.dot(b[i]));
+    }
+    best = std::min(best, std::min(ahi - blo, bhi - alo));
+  }
+  return best;
+}
+
+// ---------------------------------------------------------------------- random vs oracle
+
+TEST(TetOverlap, RandomPairsAgreeWithSamplingOracle) {
+  std::mt19937 rng(20040827);
+  std::uniform_real_distribution<double> shift(-0.6, 0.6);
+  int overlapping = 0, disjoint = 0, ambiguous = 0;
+  for (int iter = 0; iter < 1500; ++iter) {
+    const TetCorners a = random_tet(rng, 0.05);
+    TetCorners b = random_tet(rng, 0.05);
+    const Vector3d s(shift(rng), shift(rng), shift(rng));
+    for (auto& p : b) p += s;
+    const Oracle o = oracle(a, b);
+    const double pen = sat_penetration(a, b);
+    const double tol = kTol * pair_scale(a, b);
+    // Every SAT axis is a true direction, so the minimum over them is never below the
+    // penetration depth, hence never below a positive clearance found by sampling.
+    if (o.depth_lower > 0.0) {
+      EXPECT_GE(pen, o.depth_lower - 1e-12) << "iteration " << iter;
+    }
+    EXPECT_EQ(tets_overlap(a, b, tol), pen > tol) << "iteration " << iter;
+    if (o.depth_lower > 1e-6) {
+      ++overlapping;
+      EXPECT_TRUE(overlap(a, b)) << "iteration " << iter;
+    } else if (o.distance_lower > 1e-6) {
+      ++disjoint;
+      EXPECT_FALSE(overlap(a, b)) << "iteration " << iter;
+      EXPECT_LE(pen, 0.0) << "iteration " << iter;
+    } else {
+      ++ambiguous;
+    }
+  }
+  EXPECT_GT(overlapping, 200);
+  EXPECT_GT(disjoint, 200);
+}
+
+TEST(TetOverlap, GaussMapFilterKeepsTheExactPenetration) {
+  // The library skips edge pairs whose Gauss-map arcs do not cross; the minimum over the
+  // remaining axes must still be the full SAT minimum, overlapping or not, slivers too.
+  std::mt19937 rng(555);
+  std::uniform_real_distribution<double> shift(-0.6, 0.6);
+  int overlapping = 0;
+  for (int iter = 0; iter < 3000; ++iter) {
+    const TetCorners a = random_tet(rng, iter % 3 == 0 ? 0.001 : 0.05);
+    TetCorners b = random_tet(rng, 0.05);
+    const Vector3d s(shift(rng), shift(rng), shift(rng));
+    for (auto& p : b) p += s;
+    // Positive values (penetration depth) are exact; negative ones are only "some gap"
+    // (a separated pair's largest gap over the axes tried), so only their sign counts.
+    const double want = full_sat_penetration(a, b);
+    for (const double got : {sat_penetration(a, b), sat_penetration(b, a)}) {
+      if (want > 1e-9) {
+        ++overlapping;
+        EXPECT_NEAR(got, want, 1e-9) << "iteration " << iter;
+      } else {
+        EXPECT_LE(got, 1e-9) << "iteration " << iter;
+      }
+    }
+  }
+  EXPECT_GT(overlapping, 1000);
+}
+
+TEST(TetOverlap, SliversAndFlatTetsAgreeWithOracle) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uniform_real_distribution<double> shift(-0.6, 0.6);
+  int decided = 0;
+  for (int iter = 0; iter < 800; ++iter) {
+    TetCorners a = random_tet(rng, 0.0);
+    // Squash A towards the plane of its first face: quality 1e-3 .. exactly flat.
+    const double squash = iter % 4 == 0 ? 0.0 : std::pow(10.0, -1.0 - 12.0 * u(rng));
+    const Vector3d c = (a[1] + a[2] + a[3]) / 3.0;
+    a[0] = c + squash * (a[0] - c) + 0.3 * u(rng) * (a[1] - a[2]);
+    TetCorners b = random_tet(rng, 0.05);
+    const Vector3d s(shift(rng), shift(rng), shift(rng));
+    for (auto& p : b) p += s;
+    const Oracle o = oracle(a, b);
+    const double pen = sat_penetration(a, b);
+    ASSERT_FALSE(std::isnan(pen));
+    if (o.depth_lower > 0.0) {
+      EXPECT_GE(pen, o.depth_lower - 1e-12) << "iteration " << iter;
+    }
+    if (o.depth_lower > 1e-6) {
+      ++decided;
+      EXPECT_TRUE(overlap(a, b)) << "iteration " << iter;
+    } else if (o.distance_lower > 1e-6) {
+      ++decided;
+      EXPECT_FALSE(overlap(a, b)) << "iteration " << iter;
+    }
+  }
+  EXPECT_GT(decided, 400);
+}
+
+// ------------------------------------------------------------------------ known contacts
+
+TEST(TetOverlap, KnownPenetrationDepth) {
+  // A above z = 0, B below z = delta: they must move delta apart along z.
+  const TetCorners a = unit_tet();
+  for (const double delta : {1e-6, 1e-3, 0.01, 0.05}) {
+    const TetCorners b = {Vector3d(0, 0, delta), Vector3d(1, 0, delta), Vector3d(0, 1, delta),
+                          Vector3d(0, 0, delta - 1)};
+    EXPECT_NEAR(sat_penetration(a, b), delta, 1e-12 + 1e-9 * delta);
+  }
+}
+
+TEST(TetOverlap, IdenticalAndNestedTetsOverlap) {
+  const TetCorners a = unit_tet();
+  EXPECT_TRUE(overlap(a, a));
+  const Vector3d c = (a[0] + a[1] + a[2] + a[3]) / 4.0;
+  TetCorners small;
+  for (int i = 0; i < 4; ++i) small[i] = c + 0.1 * (a[i] - c);
+  EXPECT_TRUE(overlap(a, small));
+  EXPECT_TRUE(overlap(small, a));
+}
+
+TEST(TetOverlap, SharedFaceOfAMeshIsNotAnOverlap) {
+  const TetMesh m = test::two_tets_sharing_face();
+  const TetCorners a = tet_corners(m.positions, m.tets[0]);
+  const TetCorners b = tet_corners(m.positions, m.tets[1]);
+  EXPECT_FALSE(overlap(a, b));
+  EXPECT_LE(sat_penetration(a, b), 1e-15);
+}
+
+TEST(TetOverlap, NaNCornersNeverOverlap) {
+  TetCorners a = unit_tet();
+  a[2].y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(overlap(a, unit_tet()));
+  EXPECT_FALSE(overlap(unit_tet(), a));
+  a[2].y() = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(overlap(a, unit_tet()));
+}
+
+TEST(TetOverlap, FlatTetInsideATetOverlapsAndOnItsFaceDoesNot) {
+  const TetCorners big = transform(unit_tet(), 4.0, Vector3d(-1, -1, -1));
+  // A zero-volume tet (all in z = 0) well inside the big one: it has to move to get out.
+  const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(0.5, 0, 0), Vector3d(0, 0.5, 0),
+                           Vector3d(0.2, 0.2, 0)};
+  EXPECT_TRUE(overlap(flat, big));
+  EXPECT_TRUE(overlap(big, flat));
+  // The same flat tet lying on the bottom face z = -1 of the big tet: touching.
+  const TetCorners on_face = transform(flat, 1.0, Vector3d(0, 0, -1));
+  EXPECT_FALSE(overlap(on_face, big));
+  EXPECT_FALSE(overlap(big, on_face));
+  // Collinear and point-like tets.
+  const TetCorners needle = {Vector3d(0, 0, 0), Vector3d(0.2, 0, 0), Vector3d(0.4, 0, 0),
+                             Vector3d(0.6, 0, 0)};
+  EXPECT_TRUE(overlap(needle, big));
+  EXPECT_FALSE(overlap(transform(needle, 1.0, Vector3d(0, 0, -1.5)), big));
+  const TetCorners point = {Vector3d(0.1, 0.1, 0.1), Vector3d(0.1, 0.1, 0.1),
+                            Vector3d(0.1, 0.1, 0.1), Vector3d(0.1, 0.1, 0.1)};
+  EXPECT_TRUE(overlap(point, big));
+  EXPECT_FALSE(overlap(point, transform(point, 1.0, Vector3d(1e-3, 0, 0))));
+  EXPECT_FALSE(overlap(transform(point, 1.0, Vector3d(3, 3, 3)), big));
+}
+
+/// A contact configuration: B touches A; pushing B by `push` along `dir` makes them
+/// overlap by about `push` (push < 0 separates).
+struct Contact {
+  const char* name;
+  TetCorners b;
+  Vector3d dir;  ///< unit direction that pushes B into A
+};
+
+std::vector<Contact> contacts() {
+  const Vector3d down(0, 0, -1);
+  return {
+      // Face to face, B's bottom face on A's top... A's face x+y+z=1 against B's face.
+      {"face-face",
+       {Vector3d(1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, 1), Vector3d(1, 1, 1)},
+       Vector3d(-1, -1, -1).normalized()},
+      // Coplanar faces partly overlapping, tets on opposite sides of z = 0.
+      {"coplanar-offset",
+       {Vector3d(0.3, 0.3, 0), Vector3d(1.3, 0.3, 0), Vector3d(0.3, 1.3, 0),
+        Vector3d(0.3, 0.3, -1)},
+       Vector3d(0, 0, 1)},
+      // Vertex of B on the interior of A's face x + y + z = 1.
+      {"vertex-face",
+       {Vector3d(0.3, 0.3, 0.4), Vector3d(1.3, 0.8, 0.9), Vector3d(0.8, 1.3, 0.9),
+        Vector3d(0.8, 0.8, 1.4)},
+       Vector3d(-1, -1, -1).normalized()},
+      // Vertex to vertex at (0, 0, 1).
+      {"vertex-vertex",
+       {Vector3d(0, 0, 1), Vector3d(0.5, 0.5, 2), Vector3d(-0.5, 0.5, 2), Vector3d(0, -0.6, 2)},
+       down},
+      // Edge of B crossing edge (0,0,1)-(1,0,0) of A at its midpoint, skew.
+      {"edge-edge",
+       {Vector3d(0.5, -0.5, 0.5), Vector3d(0.5, 0.5, 0.5), Vector3d(1.5, 0, 1.5),
+        Vector3d(1.2, 0.3, 1.6)},
+       Vector3d(-1, 0, -1).normalized()},
+  };
+}
+
+/// (scale, offset) pairs. Input coordinates carry a rounding of |offset| * eps, so touching
+/// is decidable when |offset| * eps is below the tolerance (1e-9 * scale): offsets up to
+/// about 1e6 times the object size (docs/DETECTION.md).
+const auto kFrames = ::testing::Values(std::make_tuple(1e-6, 0.0), std::make_tuple(1.0, 0.0),
+                                       std::make_tuple(1e3, 0.0), std::make_tuple(1.0, 1e6),
+                                       std::make_tuple(1e3, 1e6), std::make_tuple(1e-3, 1e3));
+
+using ContactParam = std::tuple<int, double, std::tuple<double, double>>;
+
+class ContactSweep : public ::testing::TestWithParam<ContactParam> {};
+
+TEST_P(ContactSweep, OverlapIffPushedBeyondTolerance) {
+  const auto [which, push, frame] = GetParam();
+  const auto [scale, offset] = frame;
+  const Contact c = contacts()[static_cast<std::size_t>(which)];
+  const Vector3d o = Vector3d(1.0, -0.7, 0.3) * offset;
+  const TetCorners a = transform(unit_tet(), scale, o);
+  TetCorners b = transform(c.b, scale, o);
+  // Sanity: the unpushed configuration touches (oracle: no clear overlap, no clear gap).
+  const Oracle touching = oracle(unit_tet(), c.b);
+  ASSERT_LE(touching.depth_lower, 1e-12) << c.name;
+  ASSERT_LE(touching.distance_lower, 0.0) << c.name;
+  for (auto& p : b) p += push * scale * c.dir;
+  const bool expect = push > 0.0;
+  EXPECT_EQ(overlap(a, b), expect) << c.name << " push " << push;
+  EXPECT_EQ(overlap(b, a), expect) << c.name << " push " << push;
+}
+
+INSTANTIATE_TEST_SUITE_P(TetOverlap, ContactSweep,
+                         ::testing::Combine(::testing::Range(0, 5),
+                                            ::testing::Values(-1e-3, -1e-6, 0.0, 1e-7, 1e-4, 1e-2),
+                                            kFrames));
+
+TEST(TetOverlap, TranslationAndScaleInvariantOnRandomPairs) {
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> shift(-0.7, 0.7);
+  int checked = 0;
+  for (int iter = 0; iter < 400; ++iter) {
+    const TetCorners a = random_tet(rng, 0.05);
+    TetCorners b = random_tet(rng, 0.05);
+    const Vector3d s(shift(rng), shift(rng), shift(rng));
+    for (auto& p : b) p += s;
+    const double pen = sat_penetration(a, b);
+    if (std::abs(pen) < 1e-6) continue;  // too close to touching to compare across scales
+    ++checked;
+    for (const auto& [scale, offset] :
+         {std::pair{1e-6, 0.0}, std::pair{1e-3, 0.0}, std::pair{1e3, 0.0}, std::pair{1.0, 1e6},
+          std::pair{1e3, 1e6}, std::pair{1e-3, 1e3}}) {
+      const Vector3d o(offset, -offset, 0.5 * offset);
+      const TetCorners as = transform(a, scale, o), bs = transform(b, scale, o);
+      EXPECT_EQ(overlap(as, bs), pen > 0) << iter << " scale " << scale << " offset " << offset;
+    }
+  }
+  EXPECT_GT(checked, 300);
+}
+
+// ----------------------------------------------------------------------------- point-in-tet
+
+TEST(PointInTet, BarycentricsReproduceThePointAndSumToOne) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int iter = 0; iter < 500; ++iter) {
+    TetCorners t = random_tet(rng, 0.02);
+    if (iter % 2) std::swap(t[1], t[2]);  // inverted tets work too
+    Eigen::Vector4d w(u(rng), u(rng), u(rng), u(rng));
+    w /= w.sum();
+    const Vector3d p = w[0] * t[0] + w[1] * t[1] + w[2] * t[2] + w[3] * t[3];
+    const PointInTet r = point_in_tet(p, t, kTol * tet_scale(t));
+    ASSERT_TRUE(r.inside) << iter;
+    EXPECT_NEAR(r.bary.sum(), 1.0, 1e-12);
+    EXPECT_LT((r.bary - w).cwiseAbs().maxCoeff(), 1e-9) << iter;
+  }
+}
+
+TEST(PointInTet, OutsidePointsAreOutside) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 2.0);
+  int outside = 0;
+  for (int iter = 0; iter < 2000; ++iter) {
+    const TetCorners t = random_tet(rng, 0.02);
+    const Vector3d p(u(rng), u(rng), u(rng));
+    const double cl = clearance(p, t);
+    const PointInTet r = point_in_tet(p, t, kTol * tet_scale(t));
+    if (cl < -1e-9) {
+      ++outside;
+      EXPECT_FALSE(r.inside) << iter;
+    } else if (cl > 1e-9) {
+      EXPECT_TRUE(r.inside) << iter;
+      EXPECT_GE(r.bary.minCoeff(), 0.0);
+    }
+  }
+  EXPECT_GT(outside, 1000);
+}
+
+/// Dyadic scales and offsets (exact coordinates), so points exactly on faces stay exactly
+/// on them even at a 2^20 offset with a 2^-20 scale.
+const auto kDyadicFrames =
+    ::testing::Combine(::testing::Values(0x1p-20, 1.0, 0x1p13), ::testing::Values(0.0, 0x1p20));
+
+class PointOnBoundary : public ::testing::TestWithParam<std::tuple<double, double>> {};
+
+TEST_P(PointOnBoundary, CornersEdgesAndFacesAreInsideJustOutsideIsNot) {
+  const auto [scale, offset] = GetParam();
+  const Vector3d o(offset, 2 * offset, -offset);
+  const TetCorners t = transform(unit_tet(), scale, o);
+  const double tol = kTol * tet_scale(t);
+  const std::vector<Vector3d> on = {Vector3d(0, 0, 0),         Vector3d(1, 0, 0),
+                                    Vector3d(0.5, 0.5, 0),     Vector3d(0.25, 0.375, 0),
+                                    Vector3d(0.25, 0.25, 0.5), Vector3d(0, 0.5, 0.5)};
+  for (const Vector3d& q : on) {
+    const PointInTet r = point_in_tet(q * scale + o, t, tol);
+    EXPECT_TRUE(r.inside) << q.transpose();
+    EXPECT_GE(r.bary.minCoeff(), -1e-6);
+    EXPECT_NEAR(r.bary.sum(), 1.0, 1e-12);
+  }
+  // Just outside: 2^-20 of the size (2^-10 when that is below the coordinate rounding).
+  const double e = (scale < 1e-3 && offset > 0.0) ? 0x1p-10 : 0x1p-20;
+  const std::vector<Vector3d> out = {Vector3d(-e, 0.25, 0.25), Vector3d(0.25, 0.25, 0.5 + e),
+                                     Vector3d(1 + e, 0, 0), Vector3d(0.25, 0.25, -e)};
+  for (const Vector3d& q : out)
+    EXPECT_FALSE(point_in_tet(q * scale + o, t, tol).inside) << q.transpose();
+}
+
+INSTANTIATE_TEST_SUITE_P(TetOverlap, PointOnBoundary, kDyadicFrames);
+
+TEST(PointInTet, FlatTetsContainNothingAndNeverNaN) {
+  const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0),
+                           Vector3d(0.3, 0.3, 0)};
+  const PointInTet r = point_in_tet(Vector3d(0.2, 0.2, 0), flat, 1e-9);
+  EXPECT_FALSE(r.inside);
+  EXPECT_FALSE(r.bary.hasNaN());
+  const TetCorners point = {Vector3d(1, 1, 1), Vector3d(1, 1, 1), Vector3d(1, 1, 1),
+                            Vector3d(1, 1, 1)};
+  EXPECT_FALSE(point_in_tet(Vector3d(1, 1, 1), point, 0.0).inside);
+  EXPECT_FALSE(point_in_tet(Vector3d(std::nan(""), 0, 0), unit_tet(), 1e-9).inside);
+}
+
+// --------------------------------------------------------------------------- clipping
+
+TEST(ClipSegment, IntervalMatchesDenseSampling) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.3, 1.3);
+  int hits = 0;
+  constexpr int kSamples = 2000;
+  for (int iter = 0; iter < 1000; ++iter) {
+    const TetCorners t = random_tet(rng, 0.05);
+    const Vector3d p0(u(rng), u(rng), u(rng)), p1(u(rng), u(rng), u(rng));
+    const SegmentClip c = clip_segment_tet(p0, p1, t, kTol);
+    // Oracle: samples whose clearance is clearly positive lie in [in, out]; the
+    // extreme inside samples bracket the ends.
+    double first = 2, last = -1;
+    for (int s = 0; s <= kSamples; ++s) {
+      const double l = double(s) / kSamples;
+      if (clearance(p0 + l * (p1 - p0), t) > 1e-9) {
+        first = std::min(first, l);
+        last = std::max(last, l);
+      }
+    }
+    if (last - first > 2.0 / kSamples) {
+      ++hits;
+      ASSERT_TRUE(c.hit) << iter;
+      EXPECT_LE(c.lambda_in, first + 1e-12);
+      EXPECT_GE(c.lambda_out, last - 1e-12);
+      EXPECT_GE(c.lambda_in, first - 1.0 / kSamples - 1e-9);
+      EXPECT_LE(c.lambda_out, last + 1.0 / kSamples + 1e-9);
+    } else if (last < first) {
+      // No sample inside: either a miss or a stretch shorter than the sample spacing.
+      if (c.hit) {
+        EXPECT_LT(c.lambda_out - c.lambda_in, 1.0 / kSamples + 1e-9);
+      }
+    }
+    if (c.hit) {
+      EXPECT_LE(0.0, c.lambda_in);
+      EXPECT_LT(c.lambda_in, c.lambda_out);
+      EXPECT_LE(c.lambda_out, 1.0);
+    }
+  }
+  EXPECT_GT(hits, 100);
+}
+
+class ClipCases : public ::testing::TestWithParam<std::tuple<double, double>> {};
+
+TEST_P(ClipCases, ThroughInsideInFaceTouchingAndOutside) {
+  const auto [scale, offset] = GetParam();
+  const Vector3d o(-offset, offset, 3 * offset);
+  const TetCorners t = transform(unit_tet(), scale, o);
+  const auto clip = [&](const Vector3d& a, const Vector3d& b) {
+    return clip_segment_tet(a * scale + o, b * scale + o, t,
+                            kTol * std::max(tet_scale(t), (b - a).norm() * scale));
+  };
+  // Through: along x at y = z = 1/8, inside for x in [0, 3/4].
+  SegmentClip c = clip(Vector3d(-1, 0.125, 0.125), Vector3d(1, 0.125, 0.125));
+  ASSERT_TRUE(c.hit);
+  EXPECT_NEAR(c.lambda_in, 0.5, 1e-9);
+  EXPECT_NEAR(c.lambda_out, 0.875, 1e-9);
+  // Fully inside.
+  c = clip(Vector3d(0.125, 0.125, 0.125), Vector3d(0.25, 0.375, 0.125));
+  ASSERT_TRUE(c.hit);
+  EXPECT_EQ(c.lambda_in, 0.0);
+  EXPECT_EQ(c.lambda_out, 1.0);
+  // Lying in the face z = 0, crossing it.
+  c = clip(Vector3d(-0.5, 0.25, 0), Vector3d(1.5, 0.25, 0));
+  ASSERT_TRUE(c.hit);
+  EXPECT_NEAR(c.lambda_in, 0.25, 1e-9);
+  EXPECT_NEAR(c.lambda_out, 0.625, 1e-9);
+  // Along an edge of the tet.
+  c = clip(Vector3d(-1, 0, 0), Vector3d(2, 0, 0));
+  ASSERT_TRUE(c.hit);
+  EXPECT_NEAR(c.lambda_in, 1.0 / 3, 1e-9);
+  EXPECT_NEAR(c.lambda_out, 2.0 / 3, 1e-9);
+  // Touching a corner only, and passing just outside a face.
+  EXPECT_FALSE(clip(Vector3d(-1, 1, 1), Vector3d(1, -1, -1)).hit);
+  const double e = (scale < 1e-3 && offset > 0.0) ? 0x1p-10 : 0x1p-20;
+  EXPECT_FALSE(clip(Vector3d(-1, 0.25, -e), Vector3d(1, 0.25, -e)).hit);
+  // Outside entirely, and zero length.
+  EXPECT_FALSE(clip(Vector3d(2, 2, 2), Vector3d(3, 2, 2)).hit);
+  EXPECT_FALSE(clip(Vector3d(0.125, 0.125, 0.125), Vector3d(0.125, 0.125, 0.125)).hit);
+}
+
+INSTANTIATE_TEST_SUITE_P(TetOverlap, ClipCases, kDyadicFrames);
+
+TEST(ClipSegment, FlatTetsAndNaNNeverHit) {
+  const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0),
+                           Vector3d(0.3, 0.3, 0)};
+  EXPECT_FALSE(clip_segment_tet(Vector3d(0.1, 0.1, -1), Vector3d(0.1, 0.1, 1), flat, 1e-9).hit);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(clip_segment_tet(Vector3d(nan, 0, 0), Vector3d(1, 0, 0), unit_tet(), 1e-9).hit);
+}
+
+}  // namespace
+}  // namespace tc
