@@ -1,5 +1,6 @@
 #include "test_meshes.hpp"
 
+#include <cmath>
 #include <cstdlib>
 
 #include "core/mesh/geometry.hpp"
@@ -74,6 +75,75 @@ TetMesh structured_box(int nx, int ny, int nz, const Eigen::Vector3d& lo,
         for (const auto& t : cube_tets) tets.push_back({c[t[0]], c[t[1]], c[t[2]], c[t[3]]});
       }
   return from_points(points, std::move(tets));
+}
+
+TetMesh ball_mesh(int n, double r) {
+  TetMesh mesh = structured_box(n, n, n, {-1, -1, -1}, {1, 1, 1});
+  for (Eigen::Index i = 0; i < mesh.positions.cols(); ++i) {
+    const double x = mesh.positions(0, i), y = mesh.positions(1, i), z = mesh.positions(2, i);
+    const double x2 = x * x, y2 = y * y, z2 = z * z;
+    mesh.positions(0, i) = r * x * std::sqrt(1 - y2 / 2 - z2 / 2 + y2 * z2 / 3);
+    mesh.positions(1, i) = r * y * std::sqrt(1 - z2 / 2 - x2 / 2 + z2 * x2 / 3);
+    mesh.positions(2, i) = r * z * std::sqrt(1 - x2 / 2 - y2 / 2 + x2 * y2 / 3);
+  }
+  for (Tet& t : mesh.tets)
+    if (signed_volume(mesh.positions, t) < 0.0) std::swap(t[2], t[3]);
+  return mesh;
+}
+
+TetMesh torus_mesh(int ring_cells, int tube_cells, double big_r, double a) {
+  const int m = tube_cells;
+  const auto id = [&](int i, int j, int k) {
+    return ((i % ring_cells) * (m + 1) + j) * (m + 1) + k;
+  };
+  std::vector<Eigen::Vector3d> points;
+  const double pi = std::acos(-1.0);
+  for (int i = 0; i < ring_cells; ++i)
+    for (int j = 0; j <= m; ++j)
+      for (int k = 0; k <= m; ++k) {
+        const double x = -1.0 + 2.0 * j / m, y = -1.0 + 2.0 * k / m;
+        const double u = a * x * std::sqrt(1 - y * y / 2), v = a * y * std::sqrt(1 - x * x / 2);
+        const double theta = 2 * pi * i / ring_cells;
+        points.emplace_back((big_r + u) * std::cos(theta), (big_r + u) * std::sin(theta), v);
+      }
+  std::vector<Tet> tets;
+  const int cube_tets[6][4] = {{0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7},
+                               {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7}};
+  for (int i = 0; i < ring_cells; ++i)
+    for (int j = 0; j < m; ++j)
+      for (int k = 0; k < m; ++k) {
+        Index c[8];
+        for (int b = 0; b < 8; ++b) c[b] = id(i + (b & 1), j + ((b >> 1) & 1), k + (b >> 2));
+        for (const auto& t : cube_tets) tets.push_back({c[t[0]], c[t[1]], c[t[2]], c[t[3]]});
+      }
+  return from_points(points, std::move(tets));
+}
+
+TriMesh2 rect_mesh_2d(int nx, int ny, double w, double h) {
+  TriMesh2 mesh;
+  mesh.positions.resize(2, (nx + 1) * (ny + 1));
+  const auto id = [&](int i, int j) { return j * (nx + 1) + i; };
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      mesh.positions.col(id(i, j)) = Eigen::Vector2d(w * i / nx, h * j / ny);
+      mesh.node_ids.push_back(id(i, j) + 1);
+    }
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      mesh.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      mesh.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return mesh;
+}
+
+TriMesh2 disc_mesh_2d(int n, double r) {
+  TriMesh2 mesh = rect_mesh_2d(n, n, 2.0, 2.0);
+  for (Eigen::Index i = 0; i < mesh.positions.cols(); ++i) {
+    const double x = mesh.positions(0, i) - 1.0, y = mesh.positions(1, i) - 1.0;
+    mesh.positions(0, i) = r * x * std::sqrt(1 - y * y / 2);
+    mesh.positions(1, i) = r * y * std::sqrt(1 - x * x / 2);
+  }
+  return mesh;
 }
 
 std::filesystem::path data_path(const std::string& name) {

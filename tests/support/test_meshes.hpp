@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <string>
 
+#include "core/io/mesh_io.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
 namespace tc::test {
@@ -24,6 +25,25 @@ TetMesh cube_six_tets(double s = 1.0);
 /// [lo, hi]. Node ids are 1-based in x-fastest order.
 TetMesh structured_box(int nx, int ny, int nz, const Eigen::Vector3d& lo,
                        const Eigen::Vector3d& hi);
+
+/// A ball of radius r centred at the origin: structured_box(n, n, n) over [-1, 1]^3
+/// mapped onto the ball by the smooth cube-to-ball map x sqrt(1 - y^2/2 - z^2/2 +
+/// y^2 z^2/3) (and cyclic), scaled by r. The boundary is a triangulated sphere whose
+/// vertices lie on the sphere; 6 n^3 tets.
+TetMesh ball_mesh(int n, double r);
+
+/// A torus of tube radius a around the z axis at distance big_r from it: ring_cells
+/// cells around, tube_cells x tube_cells cells in the cross-section (a square mapped
+/// onto the disc of radius a). Boundary vertices lie on the torus; 6 * ring_cells *
+/// tube_cells^2 tets.
+TetMesh torus_mesh(int ring_cells, int tube_cells, double big_r, double a);
+
+/// A 2D disc of radius r: the square [-1, 1]^2 in n x n cells, two triangles each,
+/// mapped onto the disc by (x sqrt(1 - y^2/2), y sqrt(1 - x^2/2)) and scaled by r.
+TriMesh2 disc_mesh_2d(int n, double r);
+
+/// The rectangle [0, w] x [0, h] in nx x ny cells, two triangles each.
+TriMesh2 rect_mesh_2d(int nx, int ny, double w, double h);
 
 /// Path of a file in tests/data (from the TC_TEST_DATA environment variable, set by
 /// CTest, else the source tree path compiled in).

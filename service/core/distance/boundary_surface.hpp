@@ -1,0 +1,73 @@
+// The boundary of an object as the depth maps see it, built once per topology:
+// the boundary features (triangles of a tet mesh, segments of a 2D triangle mesh) and
+// their adjacency on the surface, which CFFM's local descent walks.
+//
+// Also the topology of the paper's 2D case (triangle meshes in the plane).
+#pragma once
+
+#include <array>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
+
+namespace tc {
+
+/// Topology of a 2D triangle mesh (the paper's Fig. 9 and 10 case), the counterpart of
+/// Topology for the depth maps. All lists are sorted.
+struct Topology2 {
+  Index num_nodes = 0;
+  Index num_triangles = 0;
+  /// Boundary segments (triangle edges used by exactly one triangle), (a, b) with a < b.
+  std::vector<std::array<Index, 2>> boundary_segments;
+  /// Nodes of the boundary segments.
+  std::vector<Index> boundary_nodes;
+  /// n flags: 1 for a boundary node.
+  std::vector<std::uint8_t> is_boundary_node;
+  /// n rows: the nodes sharing a triangle edge with node i.
+  Csr node_adjacency;
+  /// Nodes used by no triangle.
+  std::vector<Index> orphan_nodes;
+};
+
+/// Builds the topology of k triangles over n nodes.
+///
+/// @param[in] triangles  k x 3 node indices, each in [0, num_nodes).
+/// @param[in] num_nodes  n.
+Topology2 build_topology_2d(std::span<const std::array<Index, 3>> triangles, Index num_nodes);
+
+/// The boundary surface of dimension D - 1 of a D-dimensional mesh: triangles for D = 3,
+/// segments for D = 2, with the adjacency a local descent needs.
+template <int D>
+struct BoundarySurface {
+  Index num_nodes = 0;
+  /// k boundary features, D node indices each (into the mesh's nodes). For D = 3 these
+  /// are Topology::boundary_faces in the same order; for D = 2 the boundary segments.
+  std::vector<std::array<Index, D>> simplices;
+  /// n rows: the features using node i (empty for nodes not on the boundary).
+  Csr vertex_simplices;
+  /// D = 3 only: 3k rows; row 3t + j lists the other triangles that share edge j of
+  /// triangle t (edge j joins local vertices j and (j + 1) % 3). One entry on a closed
+  /// manifold surface, more on a non-manifold edge. Empty for D = 2.
+  Csr edge_simplices;
+
+  [[nodiscard]] Index size() const { return static_cast<Index>(simplices.size()); }
+};
+
+/// Boundary surface made of the given features (any order; the feature index is the
+/// position in this list).
+///
+/// @param[in] num_nodes  n, the mesh's node count.
+/// @param[in] simplices  k features, D node indices each in [0, n).
+template <int D>
+BoundarySurface<D> build_boundary_surface(Index num_nodes,
+                                          std::vector<std::array<Index, D>> simplices);
+
+/// Boundary surface of a tet mesh (triangles, in Topology::boundary_faces order).
+BoundarySurface<3> build_boundary_surface(const Topology& topo);
+/// Boundary curve of a 2D triangle mesh (segments, in Topology2 order).
+BoundarySurface<2> build_boundary_surface(const Topology2& topo);
+
+}  // namespace tc

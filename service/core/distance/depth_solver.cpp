@@ -1,0 +1,700 @@
+// Depth-map solver. Layout and queue were chosen by measurement (docs/DEPTH_MAPS.md,
+// "Performance"): on a 55k-node mesh the march is bound by memory latency, so
+//  - nodes are renumbered once per topology in breadth-first order from the boundary
+//    (boundary nodes first, then layer after layer): the front of the march and the
+//    closest points it carries stay in a compact range of memory;
+//  - the march reads one 16-byte record per node {x, y, z, key} in float, coordinates
+//    relative to a node of the object (so offsets of 1e6 cost no precision); the sign
+//    bit of `key` marks a final node, so "is the neighbour final?" costs nothing;
+//  - the default queue is a FIFO bucket queue, whose pop order follows push order;
+//  - final depths are recomputed in double from the original positions after the
+//    march: a CPFM/CFFM depth is exactly the distance to a true boundary point.
+#include "core/distance/depth_solver.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+#include "core/distance/boundary_bvh.hpp"
+#include "core/distance/point_simplex_distance.hpp"
+#include "core/distance/priority_queues.hpp"
+
+namespace tc {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+/// Upper bound on the steps of one CFFM descent (each step strictly lowers the
+/// distance; in practice 0 to 3 steps are taken).
+constexpr int kMaxDescentSteps = 32;
+/// How many pops ahead the bucket queue's nodes are prefetched (measured).
+constexpr std::size_t kPrefetchFar = 8;
+constexpr std::size_t kPrefetchNear = 4;
+/// CFFM descent: keep walking from a face whose closest point is interior (measured).
+constexpr bool kWalkAcrossInterior = true;
+
+template <int D>
+using Vecf = Eigen::Matrix<float, D, 1>;
+template <int D>
+using Vecd = Eigen::Matrix<double, D, 1>;
+
+/// Per-node record of the march: position (float, relative to a reference node) and
+/// key = tentative squared distance; a final node stores -key (sign bit set).
+template <int D>
+struct Rec {
+  float x[D];
+  float key;
+};
+
+template <int D>
+inline Vecf<D> pos_of(const Rec<D>& r) {
+  return Eigen::Map<const Vecf<D>>(r.x);
+}
+
+inline bool is_final(float key) {
+  return std::signbit(key);
+}
+
+/// Distance from p to a simplex (triangle for D = 3, segment for D = 2).
+template <int D, typename Scalar>
+inline BasicFeatureDistance<Scalar> simplex_distance(const Eigen::Matrix<Scalar, D, 1>& p,
+                                                     const Eigen::Matrix<Scalar, D, 1>* c) {
+  if constexpr (D == 3) {
+    return point_triangle_distance(p, c[0], c[1], c[2]);
+  } else {
+    return point_segment_distance(p, c[0], c[1]);
+  }
+}
+
+/// Closest point of a simplex to p.
+template <int D, typename Scalar>
+inline ClosestPoint<Eigen::Matrix<Scalar, D, 1>> simplex_closest_point(
+    const Eigen::Matrix<Scalar, D, 1>& p, const Eigen::Matrix<Scalar, D, 1>* c) {
+  if constexpr (D == 3) {
+    return closest_point_triangle(p, c[0], c[1], c[2]);
+  } else {
+    return closest_point_segment(p, c[0], c[1]);
+  }
+}
+
+/// What a march propagates (docs/DEPTH_MAPS.md):
+enum class Mode {
+  kPoint,                ///< CPFM: the closest boundary node
+  kFeaturePaper,         ///< CFFM as in the paper: a feature, ring seeding
+  kFeaturePaperDescent,  ///< the same plus the descent when a node is finalised
+  kFeatureDescent,       ///< a feature and its closest point; descent when finalised
+};
+
+Csr csr_from_rows(const std::vector<std::vector<Index>>& rows) {
+  Csr csr;
+  csr.offsets.reserve(rows.size() + 1);
+  csr.offsets.push_back(0);
+  for (const auto& r : rows) {
+    csr.indices.insert(csr.indices.end(), r.begin(), r.end());
+    csr.offsets.push_back(static_cast<Index>(csr.indices.size()));
+  }
+  return csr;
+}
+
+using QueueVariant = std::variant<detail::BucketQueue, detail::RadixHeap, detail::BinaryHeapQueue>;
+
+QueueVariant make_queue(const DepthSolverOptions& options) {
+  switch (options.queue) {
+    case QueueKind::kRadix:
+      return detail::RadixHeap{};
+    case QueueKind::kBinaryHeap:
+      return detail::BinaryHeapQueue{};
+    case QueueKind::kBucket:
+      break;
+  }
+  return detail::BucketQueue{options.bucket_width};
+}
+
+}  // namespace
+
+template <int D>
+struct BasicDepthSolver<D>::Impl {
+  DepthSolverOptions options;
+  Index n = 0;
+  // Internal numbering: [0, num_boundary) boundary nodes, then breadth-first layers,
+  // then used nodes no edge path reaches (none in a valid mesh): [0, num_used); then
+  // orphans.
+  Index num_boundary = 0;
+  Index num_used = 0;
+  std::vector<Index> perm;  ///< internal -> original
+  std::vector<Index> inv;   ///< original -> internal
+  Csr adjacency;            ///< internal indices
+  std::vector<Element> elements;
+  BoundarySurface<D> surface;                       ///< original node indices
+  std::vector<std::array<Index, D>> simplices_int;  ///< internal node indices
+  /// D = 3: the one triangle across edge j of each triangle, or -1 when the edge has
+  /// no other triangle or several (non-manifold: then edge_simplices is read).
+  std::vector<std::array<Index, 3>> across;
+  Csr vertex_simplices_int;               ///< num_boundary rows
+  std::vector<Index> seed_simplex;        ///< num_boundary: one incident simplex
+  std::vector<std::uint8_t> is_boundary;  ///< original
+  std::vector<Index> used_original;       ///< sorted original used nodes
+
+  // Per-frame buffers.
+  std::vector<Rec<D>> rec;     ///< internal
+  std::vector<Index> feature;  ///< internal: CPFM closest boundary node, CFFM simplex
+  std::vector<Vecf<D>> point;  ///< internal, kFeatureDescent: closest point on `feature`
+  std::vector<std::array<Vecf<D>, D>> corners;  ///< CFFM: float corners of each feature
+  std::vector<Vecd<D>> boundary_pos;            ///< internal boundary nodes' positions, double
+  std::vector<Index> settled_list;
+  std::vector<detail::QueueEntry> stage;
+  std::vector<double> depth;        ///< original order
+  std::vector<std::uint32_t> mark;  ///< internal
+  std::uint32_t stamp = 0;
+  std::vector<Index> marked;
+  std::size_t settled = 0;
+  QueueVariant queue;
+  BoundaryBvh<D> bvh;
+
+  void build(std::span<const Element> elems, const TopologyOf<D>& topo) {
+    n = topo.num_nodes;
+    const auto nn = static_cast<std::size_t>(n);
+    elements.assign(elems.begin(), elems.end());
+    is_boundary = topo.is_boundary_node;
+    std::vector<std::uint8_t> used(nn, 0);
+    for (const Element& e : elements)
+      for (const Index v : e) used[v] = 1;
+    for (Index v = 0; v < n; ++v)
+      if (used[v]) used_original.push_back(v);
+
+    // Boundary nodes in breadth-first order over the boundary surface (so that nodes
+    // near each other on the surface are near each other in memory), each component
+    // started from its smallest node.
+    const BoundarySurface<D> original = build_boundary_surface(topo);
+    inv.assign(nn, -1);
+    perm.reserve(nn);
+    for (const Index seed : topo.boundary_nodes) {
+      if (inv[seed] >= 0) continue;
+      std::size_t head = perm.size();
+      inv[seed] = static_cast<Index>(perm.size());
+      perm.push_back(seed);
+      for (; head < perm.size(); ++head)
+        for (const Index t : original.vertex_simplices.row(perm[head]))
+          for (const Index v : original.simplices[t])
+            if (inv[v] < 0) {
+              inv[v] = static_cast<Index>(perm.size());
+              perm.push_back(v);
+            }
+    }
+    num_boundary = static_cast<Index>(perm.size());
+    for (std::size_t head = 0; head < perm.size(); ++head)
+      for (const Index v : topo.node_adjacency.row(perm[head]))
+        if (inv[v] < 0) {
+          inv[v] = static_cast<Index>(perm.size());
+          perm.push_back(v);
+        }
+    for (const Index v : used_original)
+      if (inv[v] < 0) {
+        inv[v] = static_cast<Index>(perm.size());
+        perm.push_back(v);
+      }
+    num_used = static_cast<Index>(perm.size());
+    for (Index v = 0; v < n; ++v)
+      if (inv[v] < 0) {
+        inv[v] = static_cast<Index>(perm.size());
+        perm.push_back(v);
+      }
+
+    std::vector<std::vector<Index>> rows(nn);
+    for (Index i = 0; i < n; ++i) {
+      for (const Index v : topo.node_adjacency.row(perm[i])) rows[i].push_back(inv[v]);
+      std::sort(rows[i].begin(), rows[i].end());
+    }
+    adjacency = csr_from_rows(rows);
+
+    // Features renumbered in the order of their smallest internal node, so features
+    // near each other on the surface are near each other in memory.
+    std::vector<std::pair<std::array<Index, D>, Index>> keyed;
+    keyed.reserve(original.simplices.size());
+    for (std::size_t t = 0; t < original.simplices.size(); ++t) {
+      std::array<Index, D> key;
+      for (int k = 0; k < D; ++k) key[k] = inv[original.simplices[t][k]];
+      std::sort(key.begin(), key.end());
+      keyed.emplace_back(key, static_cast<Index>(t));
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::array<Index, D>> ordered;
+    ordered.reserve(keyed.size());
+    for (const auto& kt : keyed) ordered.push_back(original.simplices[kt.second]);
+    surface = build_boundary_surface<D>(n, std::move(ordered));
+    simplices_int.resize(surface.simplices.size());
+    for (std::size_t t = 0; t < surface.simplices.size(); ++t)
+      for (int k = 0; k < D; ++k) simplices_int[t][k] = inv[surface.simplices[t][k]];
+    if constexpr (D == 3) {
+      across.assign(surface.simplices.size(), {-1, -1, -1});
+      for (std::size_t t = 0; t < surface.simplices.size(); ++t)
+        for (int j = 0; j < 3; ++j) {
+          const auto row = surface.edge_simplices.row(static_cast<Index>(3 * t + j));
+          if (row.size() == 1) across[t][j] = row[0];
+        }
+    }
+    std::vector<std::vector<Index>> ring(static_cast<std::size_t>(num_boundary));
+    seed_simplex.assign(static_cast<std::size_t>(num_boundary), -1);
+    for (Index b = 0; b < num_boundary; ++b) {
+      const auto row = surface.vertex_simplices.row(perm[b]);
+      ring[b].assign(row.begin(), row.end());
+      if (!row.empty()) seed_simplex[b] = row[0];
+    }
+    vertex_simplices_int = csr_from_rows(ring);
+
+    rec.assign(nn, Rec<D>{});
+    for (auto& r : rec) r.key = kInfF;
+    feature.assign(nn, -1);
+    if (options.method == DepthMethod::kCffm && options.cffm == CffmVariant::kDescent)
+      point.assign(nn, Vecf<D>::Zero());
+    depth.assign(nn, kInf);
+    boundary_pos.assign(static_cast<std::size_t>(num_boundary), Vecd<D>::Zero());
+    mark.assign(nn, 0);
+    settled_list.reserve(nn);
+    queue = make_queue(options);
+  }
+
+  Status check_size(const Points& positions) const {
+    if (positions.cols() != n)
+      return Error{ErrorCode::kInvalidArgument,
+                   "positions have " + std::to_string(positions.cols()) +
+                       " columns, the topology has " + std::to_string(n) + " nodes"};
+    return {};
+  }
+
+  static Error non_finite(Index node) {
+    return Error{ErrorCode::kInvalidArgument,
+                 "node " + std::to_string(node) + " has a non-finite coordinate"};
+  }
+
+  // Copies the used nodes' positions into the records, relative to the first one.
+  Status gather(const Points& positions) {
+    if (Status st = check_size(positions); !st) return st;
+    if (num_used == 0) return {};
+    const Vecd<D> ref = positions.col(perm[0]);
+    if (!ref.allFinite()) return non_finite(perm[0]);
+    for (Index i = 0; i < num_used; ++i) {
+      const Vecd<D> x = positions.col(perm[i]);
+      if (!x.allFinite()) return non_finite(perm[i]);
+      Rec<D>& r = rec[i];
+      for (int k = 0; k < D; ++k) r.x[k] = static_cast<float>(x[k] - ref[k]);
+      r.key = kInfF;
+      if (i < num_boundary) boundary_pos[i] = x;
+    }
+    return {};
+  }
+
+  Status check_finite(const Points& positions) const {
+    if (Status st = check_size(positions); !st) return st;
+    for (const Index v : used_original)
+      if (!positions.col(v).allFinite()) return non_finite(v);
+    return {};
+  }
+
+  void load_corners(Index s, Vecf<D>* c) const {
+    for (int k = 0; k < D; ++k) c[k] = corners[s][k];
+  }
+
+  // CFFM: one compact record of corners per feature, from the gathered positions.
+  void gather_corners() {
+    corners.resize(simplices_int.size());
+    for (std::size_t t = 0; t < simplices_int.size(); ++t)
+      for (int k = 0; k < D; ++k) corners[t][k] = pos_of<D>(rec[simplices_int[t][k]]);
+  }
+
+  // Offers what u holds to its neighbours (the paper's update rule: a node takes it
+  // when that makes it nearer than what the node holds). Final nodes have key <= -0,
+  // so `d < key` is false for them.
+  template <Mode kMode, class Push>
+  void relax(Index u, Push&& push) {
+    const Index f = feature[u];
+    const Index* it = adjacency.indices.data() + adjacency.offsets[u];
+    const Index* const end = adjacency.indices.data() + adjacency.offsets[u + 1];
+    if constexpr (kMode == Mode::kPoint || kMode == Mode::kFeatureDescent) {
+      // Point propagation: CPFM's boundary node, or CFFM's closest point on the feature.
+      const Vecf<D> xf = kMode == Mode::kPoint ? pos_of<D>(rec[f]) : point[u];
+      for (; it != end; ++it) {
+        Rec<D>& r = rec[*it];
+        const float d = (pos_of<D>(r) - xf).squaredNorm();
+        if (d < r.key) {
+          r.key = d;
+          feature[*it] = f;
+          if constexpr (kMode == Mode::kFeatureDescent) point[*it] = xf;
+          push(d, *it);
+        }
+      }
+    } else {
+      Vecf<D> c[D];
+      load_corners(f, c);
+      for (; it != end; ++it) {
+        Rec<D>& r = rec[*it];
+        if (is_final(r.key)) continue;
+        const float d = simplex_distance<D, float>(pos_of<D>(r), c).sq_dist;
+        if (d < r.key) {
+          r.key = d;
+          feature[*it] = f;
+          push(d, *it);
+        }
+      }
+    }
+  }
+
+  // The paper's CFFM seeding: boundary node b offers every boundary feature around it.
+  template <class Push>
+  void relax_ring(Index b, Push&& push) {
+    const auto ring = vertex_simplices_int.row(b);
+    for (Index k = adjacency.offsets[b]; k < adjacency.offsets[b + 1]; ++k) {
+      const Index v = adjacency.indices[k];
+      Rec<D>& r = rec[v];
+      if (is_final(r.key)) continue;
+      const Vecf<D> x = pos_of<D>(r);
+      for (const Index s : ring) {
+        Vecf<D> c[D];
+        load_corners(s, c);
+        const float d = simplex_distance<D, float>(x, c).sq_dist;
+        if (d < r.key) {
+          r.key = d;
+          feature[v] = s;
+          push(d, v);
+        }
+      }
+    }
+  }
+
+  // Local descent on the boundary surface: move u's feature to a neighbouring feature
+  // while that is strictly nearer. The neighbours looked at are those around the
+  // closest point: the features at its vertex, or across its edge; a closest point
+  // inside a face (inside a segment in 2D) is a local minimum of the distance over the
+  // surface and ends the walk.
+  template <Mode kMode>
+  void descend(Index u) {
+    const Vecf<D> x = pos_of<D>(rec[u]);
+    Index s = feature[u];
+    Vecf<D> c[D];
+    load_corners(s, c);
+    ClosestPoint<Vecf<D>> q = simplex_closest_point<D, float>(x, c);
+    float qd = (x - q.point).squaredNorm();
+    Index prev = -1;
+    for (int step = 0; step < kMaxDescentSteps; ++step) {
+      Index best = s;
+      const auto consider = [&](std::span<const Index> candidates) {
+        for (const Index cand : candidates) {
+          if (cand == s || cand == prev) continue;
+          load_corners(cand, c);
+          const ClosestPoint<Vecf<D>> cq = simplex_closest_point<D, float>(x, c);
+          const float cd = (x - cq.point).squaredNorm();
+          if (cd < qd) {
+            best = cand;
+            q = cq;
+            qd = cd;
+          }
+        }
+      };
+      const int loc = static_cast<int>(q.loc);
+      if (loc < D) {
+        // At a vertex: the features around it.
+        consider(vertex_simplices_int.row(simplices_int[s][loc]));
+      } else if constexpr (D == 3) {
+        if (loc < static_cast<int>(FeatureLoc::kInterior)) {
+          consider(across_edge(s, loc - static_cast<int>(FeatureLoc::kE01)));
+        } else {
+          // Inside the face: a local minimum, but on a faceted surface every face whose
+          // plane foot lies inside it is one; the faces across the three edges may be
+          // nearer (docs/DEPTH_MAPS.md, "CFFM variants").
+          for (int j = 0; j < 3 && kWalkAcrossInterior; ++j) consider(across_edge(s, j));
+        }
+      } else {
+        // D = 2, inside the segment: the segments at both ends, for the same reason.
+        for (int j = 0; j < 2 && kWalkAcrossInterior; ++j)
+          consider(vertex_simplices_int.row(simplices_int[s][j]));
+      }
+      if (best == s) break;
+      prev = s;
+      s = best;
+    }
+    feature[u] = s;
+    if constexpr (kMode == Mode::kFeatureDescent) point[u] = q.point;
+    rec[u].key = qd;
+  }
+
+  std::span<const Index> across_edge(Index s, int j) const {
+    if constexpr (D == 3) {
+      if (across[s][j] >= 0) return {&across[s][j], 1};
+      return surface.edge_simplices.row(3 * s + j);
+    } else {
+      return {};
+    }
+  }
+
+  // The march. Boundary nodes are final at 0; then nodes are finalised in queue order.
+  // A node is final when popped and never changes afterwards, so a lazy run (which
+  // stops after some pop) is a prefix of the full run.
+  template <Mode kMode, class Queue>
+  void march(Queue& q, bool lazy, std::size_t remaining) {
+    q.clear();
+    stage.clear();
+    settled_list.clear();
+    for (Index b = 0; b < num_boundary; ++b) {
+      rec[b].key = -0.0f;
+      feature[b] = kMode == Mode::kPoint ? b : seed_simplex[b];
+      if constexpr (kMode == Mode::kFeatureDescent) point[b] = pos_of<D>(rec[b]);
+      settled_list.push_back(b);
+      if (lazy && mark[b] == stamp) --remaining;
+    }
+    if (lazy && remaining == 0) return;
+    const auto to_stage = [this](float d, Index v) { stage.push_back({d, v}); };
+    for (Index b = 0; b < num_boundary; ++b) {
+      if constexpr (kMode == Mode::kFeaturePaper || kMode == Mode::kFeaturePaperDescent) {
+        relax_ring(b, to_stage);
+      } else {
+        relax<kMode>(b, to_stage);
+      }
+    }
+    q.start(stage);
+    const auto to_queue = [&q](float d, Index v) { q.push(d, v); };
+    while (!q.empty()) {
+      const Index u = q.pop();
+      if constexpr (std::is_same_v<Queue, detail::BucketQueue>) {
+        // The march is bound by memory latency: fetch what the next pops will read.
+        if (const Index a = q.peek(kPrefetchFar); a >= 0) {
+          __builtin_prefetch(&rec[a]);
+          __builtin_prefetch(&adjacency.offsets[a]);
+          if constexpr (kMode != Mode::kPoint) __builtin_prefetch(&feature[a]);
+        }
+        if (const Index a = q.peek(kPrefetchNear); a >= 0) {
+          __builtin_prefetch(adjacency.indices.data() + adjacency.offsets[a]);
+          if constexpr (kMode != Mode::kPoint) {
+            __builtin_prefetch(&corners[feature[a]]);
+            if constexpr (D == 3) __builtin_prefetch(&across[feature[a]]);
+          }
+        }
+      }
+      if (is_final(rec[u].key)) continue;
+      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeaturePaperDescent)
+        descend<kMode>(u);
+      rec[u].key = -rec[u].key;
+      settled_list.push_back(u);
+      if (lazy && mark[u] == stamp && --remaining == 0) break;
+      relax<kMode>(u, to_queue);
+    }
+  }
+
+  // Depths of the settled nodes, in double from the original positions and the
+  // double copy of the boundary nodes' positions.
+  void finish(const Points& positions) {
+    const bool cffm = options.method == DepthMethod::kCffm;
+    const std::size_t count = settled_list.size();
+    const Index* list = settled_list.data();
+    for (std::size_t j = 0; j < count; ++j) {
+      // Two-stage prefetch: the original index, then the original position.
+      if (j + 16 < count) __builtin_prefetch(&perm[list[j + 16]]);
+      if (j + 8 < count) __builtin_prefetch(positions.data() + std::size_t{D} * perm[list[j + 8]]);
+      const Index i = list[j];
+      const Index o = perm[i];
+      if (i < num_boundary) {
+        depth[o] = 0.0;
+        continue;
+      }
+      const Vecd<D> x = positions.col(o);
+      if (cffm) {
+        Vecd<D> c[D];
+        for (int k = 0; k < D; ++k) c[k] = boundary_pos[simplices_int[feature[i]][k]];
+        depth[o] = std::sqrt(simplex_distance<D, double>(x, c).sq_dist);
+      } else {
+        depth[o] = (x - boundary_pos[feature[i]]).norm();
+      }
+    }
+    settled = count;
+  }
+
+  void run_march(const Points& positions, bool lazy, std::size_t remaining) {
+    std::visit(
+        [&](auto& q) {
+          if (options.method == DepthMethod::kCpfm) {
+            march<Mode::kPoint>(q, lazy, remaining);
+            return;
+          }
+          switch (options.cffm) {
+            case CffmVariant::kPaper:
+              march<Mode::kFeaturePaper>(q, lazy, remaining);
+              return;
+            case CffmVariant::kPaperDescent:
+              march<Mode::kFeaturePaperDescent>(q, lazy, remaining);
+              return;
+            case CffmVariant::kDescent:
+              break;
+          }
+          march<Mode::kFeatureDescent>(q, lazy, remaining);
+        },
+        queue);
+    finish(positions);
+  }
+
+  void run_exact(const Points& positions, std::span<const Index> nodes) {
+    bvh.build(surface.simplices, positions);
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, nodes.size(), 512),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const Index v = nodes[i];
+            depth[v] = is_boundary[v] ? 0.0 : std::sqrt(bvh.nearest(positions.col(v)).sq_dist);
+          }
+        });
+    settled = nodes.size();
+  }
+
+  void reset() {
+    std::fill(depth.begin(), depth.end(), kInf);
+    settled = 0;
+  }
+};
+
+template <int D>
+BasicDepthSolver<D>::BasicDepthSolver(std::span<const Element> elements, const TopologyOf<D>& topo,
+                                      DepthSolverOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->options = options;
+  impl_->build(elements, topo);
+}
+
+template <int D>
+BasicDepthSolver<D>::~BasicDepthSolver() = default;
+template <int D>
+BasicDepthSolver<D>::BasicDepthSolver(BasicDepthSolver&&) noexcept = default;
+template <int D>
+BasicDepthSolver<D>& BasicDepthSolver<D>::operator=(BasicDepthSolver&&) noexcept = default;
+
+template <int D>
+Status BasicDepthSolver<D>::compute(const Points& positions) {
+  Impl& s = *impl_;
+  s.reset();
+  if (s.options.method == DepthMethod::kExact) {
+    if (Status st = s.check_finite(positions); !st) return st;
+    s.run_exact(positions, s.used_original);
+    return {};
+  }
+  if (Status st = s.gather(positions); !st) return st;
+  if (s.options.method == DepthMethod::kCffm) s.gather_corners();
+  s.run_march(positions, false, 0);
+  return {};
+}
+
+template <int D>
+Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
+                                                        std::span<const Index> marked) {
+  Impl& s = *impl_;
+  s.reset();
+  const auto m = static_cast<Index>(s.elements.size());
+  for (std::size_t i = 0; i < marked.size(); ++i)
+    if (marked[i] < 0 || marked[i] >= m)
+      return Error{ErrorCode::kInvalidArgument,
+                   "marked element #" + std::to_string(i) + " = " + std::to_string(marked[i]) +
+                       " is out of range [0, " + std::to_string(m) + ")"};
+  const bool exact = s.options.method == DepthMethod::kExact;
+  if (Status st = exact ? s.check_finite(positions) : s.gather(positions); !st) return st.error();
+  if (++s.stamp == 0) {  // wrapped: forget the old marks
+    std::fill(s.mark.begin(), s.mark.end(), 0u);
+    s.stamp = 1;
+  }
+  s.marked.clear();
+  for (const Index e : marked)
+    for (const Index o : s.elements[e]) {
+      const Index key = exact ? o : s.inv[o];
+      if (s.mark[key] != s.stamp) {
+        s.mark[key] = s.stamp;
+        s.marked.push_back(key);
+      }
+    }
+  if (s.marked.empty()) return std::size_t{0};
+  if (exact) {
+    std::sort(s.marked.begin(), s.marked.end());
+    s.run_exact(positions, s.marked);
+  } else {
+    if (s.options.method == DepthMethod::kCffm) s.gather_corners();
+    s.run_march(positions, true, s.marked.size());
+  }
+  return s.settled;
+}
+
+template <int D>
+std::span<const double> BasicDepthSolver<D>::depth() const {
+  return impl_->depth;
+}
+template <int D>
+bool BasicDepthSolver<D>::settled(Index i) const {
+  return std::isfinite(impl_->depth[i]);
+}
+template <int D>
+std::size_t BasicDepthSolver<D>::settled_count() const {
+  return impl_->settled;
+}
+template <int D>
+Index BasicDepthSolver<D>::num_nodes() const {
+  return impl_->n;
+}
+template <int D>
+const DepthSolverOptions& BasicDepthSolver<D>::options() const {
+  return impl_->options;
+}
+
+template class BasicDepthSolver<2>;
+template class BasicDepthSolver<3>;
+
+namespace {
+
+template <int D, class Mesh, class Topo>
+Expected<std::vector<double>> one_off(const Mesh& mesh,
+                                      std::span<const std::array<Index, D + 1>> elements,
+                                      const Topo& topo, DepthSolverOptions options) {
+  BasicDepthSolver<D> solver(elements, topo, options);
+  if (Status st = solver.compute(mesh.positions); !st) return st.error();
+  return std::vector<double>(solver.depth().begin(), solver.depth().end());
+}
+
+}  // namespace
+
+Expected<std::vector<double>> compute_depth_cpfm(const TetMesh& mesh, const Topology& topo) {
+  return one_off<3>(mesh, std::span<const Tet>(mesh.tets), topo, {.method = DepthMethod::kCpfm});
+}
+Expected<std::vector<double>> compute_depth_cffm(const TetMesh& mesh, const Topology& topo,
+                                                 CffmVariant variant) {
+  return one_off<3>(mesh, std::span<const Tet>(mesh.tets), topo,
+                    {.method = DepthMethod::kCffm, .cffm = variant});
+}
+Expected<std::vector<double>> compute_depth_exact(const TetMesh& mesh, const Topology& topo) {
+  return one_off<3>(mesh, std::span<const Tet>(mesh.tets), topo, {.method = DepthMethod::kExact});
+}
+Expected<std::vector<double>> compute_depth_cpfm(const TriMesh2& mesh, const Topology2& topo) {
+  return one_off<2>(mesh, std::span<const std::array<Index, 3>>(mesh.triangles), topo,
+                    {.method = DepthMethod::kCpfm});
+}
+Expected<std::vector<double>> compute_depth_cffm(const TriMesh2& mesh, const Topology2& topo,
+                                                 CffmVariant variant) {
+  return one_off<2>(mesh, std::span<const std::array<Index, 3>>(mesh.triangles), topo,
+                    {.method = DepthMethod::kCffm, .cffm = variant});
+}
+Expected<std::vector<double>> compute_depth_exact(const TriMesh2& mesh, const Topology2& topo) {
+  return one_off<2>(mesh, std::span<const std::array<Index, 3>>(mesh.triangles), topo,
+                    {.method = DepthMethod::kExact});
+}
+
+const char* depth_method_name(DepthMethod method) {
+  switch (method) {
+    case DepthMethod::kCpfm:
+      return "cpfm";
+    case DepthMethod::kCffm:
+      return "cffm";
+    case DepthMethod::kExact:
+      return "exact";
+  }
+  return "unknown";
+}
+
+}  // namespace tc

@@ -1,0 +1,153 @@
+// Depth maps: the distance from every node of an object to the object's boundary,
+// computed on the mesh itself (paper Section 4): CPFM, CFFM, the lazy variant, and the
+// exact reference. docs/DEPTH_MAPS.md explains the algorithms and the choices made.
+//
+// Two ways to use it (STYLE habit 4):
+//  - one-off free functions, e.g. compute_depth_cpfm(mesh, topo), for scripts and tests;
+//  - DepthSolver, built once per topology, keeping its buffers across frames:
+//      DepthSolver solver(mesh.tets, topo, {.method = DepthMethod::kCffm});
+//      solver.compute(positions);                          // full depth map
+//      auto settled = solver.compute_lazy(positions, marked_tets);  // paper 4.4
+//      std::span<const double> d = solver.depth();         // n values, metres
+//
+// Units: positions and depths in metres (any consistent length unit works).
+// Nodes used by no element ("orphans") get +infinity and are never settled; so do the
+// nodes a lazy run stopped before. Output is never NaN.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <type_traits>
+#include <vector>
+
+#include "core/common/result.hpp"
+#include "core/distance/boundary_surface.hpp"
+#include "core/io/mesh_io.hpp"
+#include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
+#include "core/scene/scene.hpp"
+
+namespace tc {
+
+/// How CFFM chooses the feature a node keeps (docs/DEPTH_MAPS.md, "CFFM variants").
+enum class CffmVariant : std::uint8_t {
+  /// The paper's rule: a boundary node offers its neighbours all its incident boundary
+  /// triangles (segments in 2D); any other node offers the one feature it holds.
+  kPaper,
+  /// Boundary nodes offer one incident feature; a node being finalised walks the
+  /// boundary surface from its feature to a local minimum of the distance (to the
+  /// features around the closest point's vertex or across its edge). Default.
+  kDescent,
+  /// kPaper's seeding plus kDescent's walk (the most accurate, the slowest).
+  kPaperDescent,
+};
+
+/// Priority queue of the march (measured in docs/DEPTH_MAPS.md).
+enum class QueueKind : std::uint8_t {
+  kBucket,      ///< FIFO buckets of width bucket_width x first-layer distance (default)
+  kRadix,       ///< radix heap on float keys: exact Dijkstra order
+  kBinaryHeap,  ///< std::push_heap / pop_heap: exact Dijkstra order, the textbook choice
+};
+
+struct DepthSolverOptions {
+  DepthMethod method = DepthMethod::kCpfm;  ///< kCpfm, kCffm or kExact
+  CffmVariant cffm = CffmVariant::kDescent;
+  QueueKind queue = QueueKind::kBucket;
+  /// kBucket only: bucket width as a fraction of the mean distance of the nodes next
+  /// to the boundary (about one edge length).
+  float bucket_width = 0.25f;
+};
+
+/// Topology type of a D-dimensional mesh: Topology (tets) or Topology2 (triangles).
+template <int D>
+using TopologyOf = std::conditional_t<D == 3, Topology, Topology2>;
+
+/// Depth-map solver for one topology of a D-dimensional mesh (D = 3: tets; D = 2: the
+/// paper's triangle meshes). Construction does all topology work; compute() and
+/// compute_lazy() touch positions only and reuse the solver's buffers. Not thread-safe:
+/// use one solver per object (solvers of different objects may run concurrently).
+template <int D>
+class BasicDepthSolver {
+ public:
+  using Element = std::array<Index, D + 1>;
+  using Points = Eigen::Matrix<double, D, Eigen::Dynamic>;
+
+  /// @param[in] elements  m elements (tets or triangles), 0-based node indices in [0, n).
+  /// @param[in] topo      the topology built from the same elements (n = topo.num_nodes).
+  /// @param[in] options   method, CFFM variant, queue.
+  BasicDepthSolver(std::span<const Element> elements, const TopologyOf<D>& topo,
+                   DepthSolverOptions options = {});
+  ~BasicDepthSolver();
+  BasicDepthSolver(BasicDepthSolver&&) noexcept;
+  BasicDepthSolver& operator=(BasicDepthSolver&&) noexcept;
+  BasicDepthSolver(const BasicDepthSolver&) = delete;
+  BasicDepthSolver& operator=(const BasicDepthSolver&) = delete;
+
+  /// Full depth map: every node used by an element gets its depth and is settled.
+  ///
+  /// @param[in] positions  D x n node positions, metres.
+  /// @return kInvalidArgument when positions has the wrong size or a used node has a
+  ///         non-finite coordinate (the message names the node); depth() is then all
+  ///         +infinity.
+  Status compute(const Points& positions);
+
+  /// Lazy depth map (paper 4.4): marches only until every node of every marked element
+  /// is settled. The settled values are bit-identical to compute()'s for the same
+  /// positions; other nodes read +infinity. For kExact, only the marked elements' nodes
+  /// are computed.
+  ///
+  /// @param[in] positions     D x n node positions, metres.
+  /// @param[in] marked        element indices (0-based, file order; any order, repeats
+  ///                          allowed), e.g. the tets detection found overlapping.
+  /// @return the number of settled nodes, or kInvalidArgument (bad size, non-finite
+  ///         coordinate, element index out of range; the message names it).
+  Expected<std::size_t> compute_lazy(const Points& positions, std::span<const Index> marked);
+
+  /// n depths (metres) from the last compute: >= 0 for settled nodes, +infinity else.
+  [[nodiscard]] std::span<const double> depth() const;
+  /// True when node i got its final value in the last compute.
+  [[nodiscard]] bool settled(Index i) const;
+  /// Number of settled nodes in the last compute.
+  [[nodiscard]] std::size_t settled_count() const;
+  /// n.
+  [[nodiscard]] Index num_nodes() const;
+  [[nodiscard]] const DepthSolverOptions& options() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+extern template class BasicDepthSolver<2>;
+extern template class BasicDepthSolver<3>;
+
+/// The solver for tetrahedral meshes.
+using DepthSolver = BasicDepthSolver<3>;
+/// The solver for the paper's 2D triangle meshes.
+using DepthSolver2 = BasicDepthSolver<2>;
+
+// One-off functions: n depths (metres, +infinity for orphan nodes) of a mesh with
+// indices in range, `topo` built from it; an error (kInvalidArgument) names the first
+// node with a non-finite coordinate.
+
+/// Closest Point Fast Marching (paper 4.2, "CPFM").
+Expected<std::vector<double>> compute_depth_cpfm(const TetMesh& mesh, const Topology& topo);
+/// Closest Feature Fast Marching ("CFFM"), with the given variant.
+Expected<std::vector<double>> compute_depth_cffm(const TetMesh& mesh, const Topology& topo,
+                                                 CffmVariant variant = CffmVariant::kDescent);
+/// Exact distance to the boundary surface (BVH over the boundary triangles, TBB over
+/// nodes). For reports and tests.
+Expected<std::vector<double>> compute_depth_exact(const TetMesh& mesh, const Topology& topo);
+
+/// 2D counterparts on a triangle mesh (the paper's Fig. 9 and 10).
+Expected<std::vector<double>> compute_depth_cpfm(const TriMesh2& mesh, const Topology2& topo);
+Expected<std::vector<double>> compute_depth_cffm(const TriMesh2& mesh, const Topology2& topo,
+                                                 CffmVariant variant = CffmVariant::kDescent);
+Expected<std::vector<double>> compute_depth_exact(const TriMesh2& mesh, const Topology2& topo);
+
+/// Short name of a method ("cpfm", "cffm", "exact").
+const char* depth_method_name(DepthMethod method);
+
+}  // namespace tc

@@ -1,0 +1,620 @@
+// Depth maps (service/core/distance/depth_solver): analytic cases, the ordering
+// exact <= CFFM, CPFM, lazy == full, components, orphans, degenerate tets, determinism
+// across runs and TBB thread counts, robustness, and the 2D case.
+#include "core/distance/depth_solver.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <set>
+
+#include "core/distance/point_simplex_distance.hpp"
+#include "core/mesh/geometry.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::vector<double> solve(const TetMesh& m, const Topology& topo, DepthSolverOptions o) {
+  DepthSolver s(m.tets, topo, o);
+  EXPECT_TRUE(s.compute(m.positions).ok());
+  return {s.depth().begin(), s.depth().end()};
+}
+
+std::vector<double> exact_of(const TetMesh& m, const Topology& topo) {
+  return solve(m, topo, {.method = DepthMethod::kExact});
+}
+
+/// Moves interior nodes by up to `amount` times the cell size, randomly (seeded).
+void jitter_interior(TetMesh& m, const Topology& topo, double amount, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-amount, amount);
+  for (Index i = 0; i < m.num_nodes(); ++i)
+    if (!topo.is_boundary_node[i])
+      for (int k = 0; k < 3; ++k) m.positions(k, i) += u(rng);
+}
+
+/// Renumbers the nodes randomly (seeded): the solver must not depend on file order.
+void shuffle_nodes(TetMesh& m, unsigned seed) {
+  std::vector<Index> p(static_cast<std::size_t>(m.num_nodes()));
+  std::iota(p.begin(), p.end(), 0);
+  std::shuffle(p.begin(), p.end(), std::mt19937(seed));
+  Positions q(3, m.num_nodes());
+  for (Index i = 0; i < m.num_nodes(); ++i) q.col(p[i]) = m.positions.col(i);
+  m.positions = q;
+  for (Tet& t : m.tets)
+    for (Index& v : t) v = p[v];
+}
+
+double max_boundary_edge(const TetMesh& m, const Topology& topo) {
+  double h = 0.0;
+  for (const auto& e : topo.boundary_edges)
+    h = std::max(h, (m.positions.col(e[0]) - m.positions.col(e[1])).norm());
+  return h;
+}
+
+struct ErrorStats {
+  double max = 0.0;   ///< largest (approx - exact)
+  double mean = 0.0;  ///< mean |approx - exact| over used nodes
+  double min = 0.0;   ///< smallest (approx - exact): >= 0 when approx never undershoots
+};
+
+ErrorStats error_stats(const std::vector<double>& approx, const std::vector<double>& exact) {
+  ErrorStats s;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < exact.size(); ++i) {
+    if (!std::isfinite(exact[i])) continue;
+    const double e = approx[i] - exact[i];
+    s.max = std::max(s.max, e);
+    s.min = std::min(s.min, e);
+    s.mean += std::abs(e);
+    ++count;
+  }
+  s.mean /= static_cast<double>(std::max<std::size_t>(count, 1));
+  return s;
+}
+
+// ---------------------------------------------------------------------------
+// Exact reference.
+
+TEST(DepthExact, BoxEqualsDistanceToNearestFace) {
+  const Eigen::Vector3d lo(-1.0, 0.5, 2.0), hi(1.0, 2.0, 2.75);
+  TetMesh m = test::structured_box(8, 6, 3, lo, hi);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  jitter_interior(m, topo, 0.08, 1);  // interior nodes stay inside the box
+  const auto exact = exact_of(m, topo);
+  for (Index i = 0; i < m.num_nodes(); ++i) {
+    const Eigen::Vector3d x = m.positions.col(i);
+    const double want = std::min((x - lo).minCoeff(), (hi - x).minCoeff());
+    EXPECT_NEAR(exact[i], want, 1e-12) << "node " << i;
+  }
+}
+
+class DepthExactBruteForce : public ::testing::TestWithParam<unsigned> {};
+
+TEST_P(DepthExactBruteForce, BvhEqualsMinimumOverAllTriangles) {
+  TetMesh m = test::ball_mesh(6, 1.3);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  jitter_interior(m, topo, 0.05, GetParam());
+  const auto exact = exact_of(m, topo);
+  for (Index i = 0; i < m.num_nodes(); ++i) {
+    double best = kInf;
+    for (const auto& f : topo.boundary_faces) {
+      const Eigen::Vector3d a = m.positions.col(f[0]), b = m.positions.col(f[1]),
+                            c = m.positions.col(f[2]);
+      best = std::min(
+          best, point_triangle_distance(Eigen::Vector3d(m.positions.col(i)), a, b, c).sq_dist);
+    }
+    EXPECT_EQ(exact[i], std::sqrt(best)) << "node " << i;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, DepthExactBruteForce, ::testing::Values(1u, 2u, 3u));
+
+// ---------------------------------------------------------------------------
+// Analytic cases.
+
+// The boundary of ball_mesh is inscribed in the sphere of radius r, so for an interior
+// point r - |x| - gap <= exact <= r - |x|, gap = r - (smallest distance from the centre
+// to a boundary triangle) (docs/DEPTH_MAPS.md, "Tests").
+TEST(DepthAnalytic, BallExactWithinChordGapOfRadiusMinusNorm) {
+  const double r = 2.0;
+  const TetMesh m = test::ball_mesh(10, r);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  double gap = 0.0;
+  for (const auto& f : topo.boundary_faces) {
+    const double d = std::sqrt(point_triangle_distance(Eigen::Vector3d::Zero().eval(),
+                                                       Eigen::Vector3d(m.positions.col(f[0])),
+                                                       Eigen::Vector3d(m.positions.col(f[1])),
+                                                       Eigen::Vector3d(m.positions.col(f[2])))
+                                   .sq_dist);
+    gap = std::max(gap, r - d);
+  }
+  EXPECT_LT(gap, 0.05 * r);
+  const auto exact = exact_of(m, topo);
+  for (Index i = 0; i < m.num_nodes(); ++i) {
+    const double analytic = r - m.positions.col(i).norm();
+    EXPECT_LE(exact[i], analytic + 1e-12) << "node " << i;
+    EXPECT_GE(exact[i], analytic - gap - 1e-12) << "node " << i;
+  }
+  // The marches are upper bounds, within a boundary edge of the exact depth here.
+  const double h = max_boundary_edge(m, topo);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    const ErrorStats e = error_stats(solve(m, topo, {.method = method}), exact);
+    EXPECT_GE(e.min, 0.0);
+    EXPECT_LT(e.max, 0.5 * h) << depth_method_name(method);
+  }
+}
+
+TEST(DepthAnalytic, TorusExactWithinChordGap) {
+  const double big_r = 3.0, a = 1.0;
+  const TetMesh m = test::torus_mesh(48, 8, big_r, a);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  EXPECT_EQ(boundary_euler_characteristic(topo), 0);
+  const auto exact = exact_of(m, topo);
+  // Inscribed again: exact <= a - |(rho - R, z)|, and the gap is small.
+  double worst_below = 0.0;
+  for (Index i = 0; i < m.num_nodes(); ++i) {
+    const Eigen::Vector3d x = m.positions.col(i);
+    const double rho = std::hypot(x.x(), x.y());
+    const double analytic = a - std::hypot(rho - big_r, x.z());
+    EXPECT_LE(exact[i], analytic + 1e-12) << "node " << i;
+    worst_below = std::max(worst_below, analytic - exact[i]);
+  }
+  EXPECT_LT(worst_below, 0.06 * a);
+}
+
+// ---------------------------------------------------------------------------
+// Ordering properties on several meshes, node orders and queues.
+
+struct MeshCase {
+  const char* name;
+  TetMesh mesh;
+};
+
+std::vector<MeshCase> property_meshes() {
+  std::vector<MeshCase> cases;
+  cases.push_back({"ball", test::ball_mesh(8, 1.0)});
+  cases.push_back({"torus", test::torus_mesh(40, 6, 2.0, 0.7)});
+  {
+    TetMesh box = test::structured_box(9, 7, 5, {0, 0, 0}, {1.8, 1.4, 1.0});
+    const Topology t = build_topology(box.tets, box.num_nodes());
+    jitter_interior(box, t, 0.06, 7);
+    shuffle_nodes(box, 11);
+    cases.push_back({"jittered shuffled box", std::move(box)});
+  }
+  return cases;
+}
+
+class DepthOrdering : public ::testing::TestWithParam<QueueKind> {};
+
+TEST_P(DepthOrdering, ExactLeCffmAndCpfmWithCffmMoreAccurate) {
+  for (const MeshCase& c : property_meshes()) {
+    SCOPED_TRACE(c.name);
+    const Topology topo = build_topology(c.mesh.tets, c.mesh.num_nodes());
+    const auto exact = exact_of(c.mesh, topo);
+    const auto cpfm = solve(c.mesh, topo, {.method = DepthMethod::kCpfm, .queue = GetParam()});
+    const ErrorStats ep = error_stats(cpfm, exact);
+    // CPFM returns |x - p| for a boundary node p: a point of the boundary, so never
+    // below the distance to the boundary (up to the last bit of the two computations).
+    EXPECT_GE(ep.min, -1e-15);
+    for (const CffmVariant v :
+         {CffmVariant::kPaper, CffmVariant::kDescent, CffmVariant::kPaperDescent}) {
+      const auto cffm =
+          solve(c.mesh, topo, {.method = DepthMethod::kCffm, .cffm = v, .queue = GetParam()});
+      const ErrorStats ef = error_stats(cffm, exact);
+      EXPECT_GE(ef.min, -1e-15) << static_cast<int>(v);  // distance to a boundary triangle
+      EXPECT_LE(ef.mean, ep.mean) << static_cast<int>(v);
+      EXPECT_LE(ef.max, ep.max * 1.05) << static_cast<int>(v);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Queues, DepthOrdering,
+                         ::testing::Values(QueueKind::kBucket, QueueKind::kRadix,
+                                           QueueKind::kBinaryHeap));
+
+TEST(DepthOrdering, DescentMakesCffmNearlyExactOnTorus) {
+  const TetMesh m = test::torus_mesh(64, 10, 3.0, 1.0);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  const auto exact = exact_of(m, topo);
+  const double deepest = *std::max_element(exact.begin(), exact.end());
+  const ErrorStats paper = error_stats(
+      solve(m, topo, {.method = DepthMethod::kCffm, .cffm = CffmVariant::kPaper}), exact);
+  const ErrorStats descent = error_stats(solve(m, topo, {.method = DepthMethod::kCffm}), exact);
+  EXPECT_LE(descent.max, 0.005 * deepest);
+  EXPECT_LE(descent.mean, 1e-4 * deepest);
+  EXPECT_LT(descent.mean, paper.mean);
+}
+
+// ---------------------------------------------------------------------------
+// Lazy update.
+
+struct LazyCase {
+  DepthMethod method;
+  CffmVariant cffm;
+  QueueKind queue;
+};
+
+class DepthLazy : public ::testing::TestWithParam<LazyCase> {};
+
+TEST_P(DepthLazy, SettledValuesEqualTheFullRunBitForBit) {
+  const LazyCase p = GetParam();
+  TetMesh m = test::torus_mesh(32, 6, 2.0, 0.8);
+  shuffle_nodes(m, 5);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  DepthSolver solver(m.tets, topo, {.method = p.method, .cffm = p.cffm, .queue = p.queue});
+  ASSERT_TRUE(solver.compute(m.positions).ok());
+  const std::vector<double> full(solver.depth().begin(), solver.depth().end());
+  EXPECT_EQ(solver.settled_count(), static_cast<std::size_t>(m.num_nodes()));
+
+  std::mt19937 rng(1234);
+  for (int sweep = 0; sweep < 60; ++sweep) {
+    std::vector<Index> marked;
+    if (sweep % 3 == 2) {
+      // A shallow contact: the tets with a node above a plane near the top.
+      const double z = 0.8 * (0.6 + 0.02 * (sweep % 10));
+      for (Index t = 0; t < m.num_tets(); ++t)
+        for (const Index v : m.tets[t])
+          if (m.positions(2, v) > z) {
+            marked.push_back(t);
+            break;
+          }
+    } else {
+      const int count = 1 + static_cast<int>(rng() % (sweep % 3 == 0 ? 4 : 200));
+      for (int k = 0; k < count; ++k) marked.push_back(static_cast<Index>(rng() % m.num_tets()));
+    }
+    auto settled = solver.compute_lazy(m.positions, marked);
+    ASSERT_TRUE(settled) << settled.error().message;
+    EXPECT_EQ(*settled, solver.settled_count());
+    std::size_t finite = 0;
+    for (Index i = 0; i < m.num_nodes(); ++i) {
+      if (solver.settled(i)) {
+        ++finite;
+        // Every settled value, not only the marked ones, is the full run's.
+        EXPECT_EQ(solver.depth()[i], full[i]) << "sweep " << sweep << " node " << i;
+      } else {
+        EXPECT_EQ(solver.depth()[i], kInf);
+      }
+    }
+    EXPECT_EQ(finite, *settled);
+    for (const Index t : marked)
+      for (const Index v : m.tets[t]) ASSERT_TRUE(solver.settled(v)) << "sweep " << sweep;
+  }
+  // The solver is reusable: a full run after lazy ones is the same again.
+  ASSERT_TRUE(solver.compute(m.positions).ok());
+  EXPECT_EQ(std::vector<double>(solver.depth().begin(), solver.depth().end()), full);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Methods, DepthLazy,
+    ::testing::Values(LazyCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kRadix},
+                      LazyCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kBinaryHeap},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kPaper, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kPaperDescent, QueueKind::kRadix},
+                      LazyCase{DepthMethod::kExact, CffmVariant::kDescent, QueueKind::kBucket}));
+
+TEST(DepthLazy, ShallowContactSettlesFewNodes) {
+  const TetMesh m = test::torus_mesh(48, 8, 3.0, 1.0);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  std::vector<Index> marked;
+  for (Index t = 0; t < m.num_tets(); ++t)
+    for (const Index v : m.tets[t])
+      if (m.positions(2, v) > 0.8) {  // 10% of the thickness 2a below the top
+        marked.push_back(t);
+        break;
+      }
+  DepthSolver solver(m.tets, topo);
+  const auto settled = solver.compute_lazy(m.positions, marked);
+  ASSERT_TRUE(settled);
+  EXPECT_LT(*settled, static_cast<std::size_t>(m.num_nodes()) * 3 / 4);
+  EXPECT_GE(*settled, topo.boundary_nodes.size());
+}
+
+TEST(DepthLazy, EmptyTargetSetSettlesNothing) {
+  const TetMesh m = test::cube_six_tets();
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  DepthSolver solver(m.tets, topo);
+  const auto settled = solver.compute_lazy(m.positions, {});
+  ASSERT_TRUE(settled);
+  EXPECT_EQ(*settled, 0u);
+  for (const double d : solver.depth()) EXPECT_EQ(d, kInf);
+}
+
+TEST(DepthLazy, OutOfRangeTetIsAnErrorNamingIt) {
+  const TetMesh m = test::cube_six_tets();
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  DepthSolver solver(m.tets, topo);
+  const std::vector<Index> marked = {0, 6};
+  const auto settled = solver.compute_lazy(m.positions, marked);
+  ASSERT_FALSE(settled);
+  EXPECT_EQ(settled.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(settled.error().message.find("#1 = 6"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------
+// Cut objects, orphans, degenerate tets.
+
+TetMesh merge(const TetMesh& a, const TetMesh& b) {
+  TetMesh m;
+  m.positions.resize(3, a.num_nodes() + b.num_nodes());
+  m.positions << a.positions, b.positions;
+  m.node_ids = a.node_ids;
+  for (const auto id : b.node_ids) m.node_ids.push_back(id + 100000);
+  m.tets = a.tets;
+  for (Tet t : b.tets) {
+    for (Index& v : t) v += a.num_nodes();
+    m.tets.push_back(t);
+  }
+  return m;
+}
+
+TEST(DepthComponents, TwoDisconnectedPiecesEachGetTheirOwnDepth) {
+  // Two boxes side by side with a thin gap, as after a cut.
+  const TetMesh left = test::structured_box(6, 6, 6, {0, 0, 0}, {1, 1, 1});
+  const TetMesh right = test::structured_box(6, 6, 6, {1.02, 0, 0}, {2.02, 1, 1});
+  const TetMesh m = merge(left, right);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  EXPECT_EQ(topo.num_components, 2);
+  const auto exact = exact_of(m, topo);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact}) {
+    const auto d = solve(m, topo, {.method = method});
+    for (Index i = 0; i < m.num_nodes(); ++i) {
+      const Eigen::Vector3d x = m.positions.col(i);
+      const Eigen::Vector3d lo =
+          i < left.num_nodes() ? Eigen::Vector3d(0, 0, 0) : Eigen::Vector3d(1.02, 0, 0);
+      const double want =
+          std::min((x - lo).minCoeff(), (lo + Eigen::Vector3d::Ones() - x).minCoeff());
+      EXPECT_NEAR(d[i], want, 1e-12) << depth_method_name(method) << " node " << i;
+    }
+  }
+}
+
+TEST(DepthOrphans, OrphanNodesGetInfinityAndAreNeverSettled) {
+  TetMesh m = test::structured_box(3, 3, 3, {0, 0, 0}, {1, 1, 1});
+  const Index used = m.num_nodes();
+  m.positions.conservativeResize(3, used + 2);
+  m.positions.col(used) = Eigen::Vector3d(0.5, 0.5, 0.5);
+  m.positions.col(used + 1).setConstant(std::numeric_limits<double>::quiet_NaN());
+  m.node_ids.push_back(9001);
+  m.node_ids.push_back(9002);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  ASSERT_EQ(topo.orphan_nodes.size(), 2u);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact}) {
+    DepthSolver s(m.tets, topo, {.method = method});
+    ASSERT_TRUE(s.compute(m.positions).ok()) << depth_method_name(method);
+    EXPECT_EQ(s.settled_count(), static_cast<std::size_t>(used));
+    for (const Index o : topo.orphan_nodes) {
+      EXPECT_EQ(s.depth()[o], kInf);
+      EXPECT_FALSE(s.settled(o));
+    }
+    for (Index i = 0; i < used; ++i) EXPECT_TRUE(std::isfinite(s.depth()[i]));
+  }
+}
+
+TEST(DepthDegenerate, FlatAndCollapsedTetsNeitherCrashNorProduceNaN) {
+  TetMesh m = test::structured_box(4, 4, 4, {0, 0, 0}, {1, 1, 1});
+  const Index n = m.num_nodes();
+  // A flat tet glued on the top face (its 4th node in the face's plane), and a tet
+  // whose nodes all coincide but one, hanging off a corner.
+  m.positions.conservativeResize(3, n + 3);
+  m.positions.col(n) = Eigen::Vector3d(0.3, 0.3, 1.0);
+  m.positions.col(n + 1) = Eigen::Vector3d(1.0, 1.0, 1.0);
+  m.positions.col(n + 2) = Eigen::Vector3d(1.0, 1.0, 1.0);
+  const Index top = 4 * 5 * 5;  // first node of the top layer k = 4
+  m.tets.push_back({top, top + 1, top + 5, n});
+  m.tets.push_back({n + 1, n + 2, n + 1 + 0, top + 24});
+  m.tets.back()[2] = top + 23;
+  for (int k = 0; k < 3; ++k) m.node_ids.push_back(5000 + k);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  const auto exact = exact_of(m, topo);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    for (const CffmVariant v :
+         {CffmVariant::kPaper, CffmVariant::kDescent, CffmVariant::kPaperDescent}) {
+      const auto d = solve(m, topo, {.method = method, .cffm = v});
+      for (Index i = 0; i < m.num_nodes(); ++i) {
+        ASSERT_FALSE(std::isnan(d[i]));
+        EXPECT_TRUE(std::isfinite(d[i]));
+        EXPECT_GE(d[i], exact[i] - 1e-15);
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Determinism and robustness.
+
+TEST(DepthDeterminism, SameResultAcrossRunsAndThreadCounts) {
+  TetMesh m = test::ball_mesh(8, 1.0);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  jitter_interior(m, topo, 0.03, 3);
+  for (const auto method : {DepthMethod::kExact, DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    std::vector<double> first;
+    for (const int threads : {1, 2, 4, 1}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                static_cast<std::size_t>(threads));
+      DepthSolver s(m.tets, topo, {.method = method});
+      for (int run = 0; run < 2; ++run) {
+        ASSERT_TRUE(s.compute(m.positions).ok());
+        const std::vector<double> d(s.depth().begin(), s.depth().end());
+        if (first.empty()) first = d;
+        EXPECT_EQ(d, first) << depth_method_name(method) << " threads " << threads;
+      }
+    }
+  }
+}
+
+TEST(DepthDeterminism, ReusedSolverMatchesAFreshOneAfterOtherPositions) {
+  TetMesh m = test::torus_mesh(24, 5, 2.0, 0.6);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    DepthSolver reused(m.tets, topo, {.method = method});
+    TetMesh other = m;
+    other.positions *= 1.7;
+    other.positions.row(0).array() += 0.3;
+    ASSERT_TRUE(reused.compute(other.positions).ok());
+    ASSERT_TRUE(reused.compute(m.positions).ok());
+    EXPECT_EQ(std::vector<double>(reused.depth().begin(), reused.depth().end()),
+              solve(m, topo, {.method = method}));
+  }
+}
+
+class DepthScale : public ::testing::TestWithParam<std::pair<double, double>> {};
+
+TEST_P(DepthScale, OffsetAndScaleKeepTheRelativeError) {
+  const auto [scale, offset] = GetParam();
+  TetMesh m = test::ball_mesh(7, 1.0);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  jitter_interior(m, topo, 0.04, 9);
+  const auto reference_exact = exact_of(m, topo);
+  const auto reference_cpfm = solve(m, topo, {.method = DepthMethod::kCpfm});
+  const auto reference_cffm = solve(m, topo, {.method = DepthMethod::kCffm});
+  TetMesh moved = m;
+  moved.positions = (m.positions * scale).array() + offset;
+  const auto exact = exact_of(moved, topo);
+  const auto cpfm = solve(moved, topo, {.method = DepthMethod::kCpfm});
+  const auto cffm = solve(moved, topo, {.method = DepthMethod::kCffm});
+  // Relative to the ball's size; an offset of 1e6 costs the double coordinates ~1e-10.
+  const double tol = 1e-9 * (1.0 + std::abs(offset) / scale) * scale;
+  for (Index i = 0; i < m.num_nodes(); ++i) {
+    EXPECT_NEAR(exact[i], scale * reference_exact[i], tol);
+    EXPECT_GE(cpfm[i], exact[i] - tol);
+    EXPECT_GE(cffm[i], exact[i] - tol);
+  }
+  const ErrorStats a = error_stats(cpfm, exact), b = error_stats(reference_cpfm, reference_exact);
+  EXPECT_NEAR(a.mean, scale * b.mean, 1e-3 * scale);
+  const ErrorStats c = error_stats(cffm, exact), d = error_stats(reference_cffm, reference_exact);
+  EXPECT_NEAR(c.mean, scale * d.mean, 1e-3 * scale);
+}
+
+INSTANTIATE_TEST_SUITE_P(ScalesAndOffsets, DepthScale,
+                         ::testing::Values(std::pair{1.0, 1e6}, std::pair{1e-6, 0.0},
+                                           std::pair{1e-6, 1.0}, std::pair{1e3, -250.0}));
+
+TEST(DepthRobustness, NonFiniteOrMisSizedPositionsAreErrorsNamingTheNode) {
+  TetMesh m = test::structured_box(3, 3, 3, {0, 0, 0}, {1, 1, 1});
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact}) {
+    DepthSolver s(m.tets, topo, {.method = method});
+    Positions bad = m.positions;
+    bad(1, 17) = std::numeric_limits<double>::quiet_NaN();
+    const Status st = s.compute(bad);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error().message.find("node 17"), std::string::npos) << st.error().message;
+    for (const double d : s.depth()) EXPECT_FALSE(std::isnan(d));
+    bad(1, 17) = std::numeric_limits<double>::infinity();
+    EXPECT_FALSE(s.compute(bad).ok());
+    const Positions short_positions = m.positions.leftCols(10);
+    EXPECT_FALSE(s.compute(short_positions).ok());
+    const std::vector<Index> marked = {0};
+    EXPECT_FALSE(s.compute_lazy(short_positions, marked));
+  }
+}
+
+TEST(DepthRobustness, SingleTetAndPointsOnTheBoundary) {
+  // Every node is a boundary node: all depths are 0.
+  const TetMesh m = test::single_tet();
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact})
+    for (const double d : solve(m, topo, {.method = method})) EXPECT_EQ(d, 0.0);
+}
+
+TEST(DepthFreeFunctions, MatchTheSolver) {
+  const TetMesh m = test::ball_mesh(5, 1.0);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  EXPECT_EQ(*compute_depth_cpfm(m, topo), solve(m, topo, {.method = DepthMethod::kCpfm}));
+  EXPECT_EQ(*compute_depth_cffm(m, topo), solve(m, topo, {.method = DepthMethod::kCffm}));
+  EXPECT_EQ(*compute_depth_exact(m, topo), exact_of(m, topo));
+  TetMesh bad = m;
+  bad.positions(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(compute_depth_cpfm(bad, topo));
+}
+
+// ---------------------------------------------------------------------------
+// 2D (the paper's Fig. 9 and 10 case).
+
+std::vector<double> solve_2d(const TriMesh2& m, const Topology2& topo, DepthSolverOptions o) {
+  DepthSolver2 s(m.triangles, topo, o);
+  EXPECT_TRUE(s.compute(m.positions).ok());
+  return {s.depth().begin(), s.depth().end()};
+}
+
+TEST(Depth2d, RectangleExactIsDistanceToNearestSide) {
+  TriMesh2 m = test::rect_mesh_2d(12, 7, 3.0, 1.5);
+  const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
+  EXPECT_EQ(topo.boundary_segments.size(), 2u * (12 + 7));
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  for (Index i = 0; i < m.positions.cols(); ++i)
+    if (!topo.is_boundary_node[i]) m.positions.col(i) += Eigen::Vector2d(u(rng), u(rng));
+  const auto exact = solve_2d(m, topo, {.method = DepthMethod::kExact});
+  const auto cpfm = solve_2d(m, topo, {.method = DepthMethod::kCpfm});
+  const auto cffm = solve_2d(m, topo, {.method = DepthMethod::kCffm});
+  for (Index i = 0; i < m.positions.cols(); ++i) {
+    const Eigen::Vector2d x = m.positions.col(i);
+    const double want = std::min({x.x(), x.y(), 3.0 - x.x(), 1.5 - x.y()});
+    EXPECT_NEAR(exact[i], want, 1e-12);
+    EXPECT_GE(cpfm[i], exact[i] - 1e-15);
+    EXPECT_GE(cffm[i], exact[i] - 1e-15);
+    EXPECT_LE(cffm[i], cpfm[i] + 1e-12);
+  }
+}
+
+TEST(Depth2d, DiscMarchesAreUpperBoundsAndCffmIsCloser) {
+  const double r = 1.0;
+  const TriMesh2 m = test::disc_mesh_2d(24, r);
+  const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
+  const auto exact = solve_2d(m, topo, {.method = DepthMethod::kExact});
+  double h = 0.0;
+  for (const auto& s : topo.boundary_segments)
+    h = std::max(h, (m.positions.col(s[0]) - m.positions.col(s[1])).norm());
+  const double gap = h * h / (8 * r) * 1.01;  // sagitta of the longest chord
+  for (Index i = 0; i < m.positions.cols(); ++i) {
+    const double analytic = r - m.positions.col(i).norm();
+    EXPECT_LE(exact[i], analytic + 1e-12);
+    EXPECT_GE(exact[i], analytic - gap);
+  }
+  const ErrorStats ep = error_stats(solve_2d(m, topo, {.method = DepthMethod::kCpfm}), exact);
+  const ErrorStats ef = error_stats(solve_2d(m, topo, {.method = DepthMethod::kCffm}), exact);
+  EXPECT_GE(ep.min, -1e-15);
+  EXPECT_GE(ef.min, -1e-15);
+  EXPECT_LT(ef.max, ep.max);
+  EXPECT_LT(ef.mean, ep.mean);
+  EXPECT_LT(ep.max, 0.5 * h);
+}
+
+TEST(Depth2d, LazyEqualsFull) {
+  const TriMesh2 m = test::disc_mesh_2d(16, 1.0);
+  const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    DepthSolver2 s(m.triangles, topo, {.method = method});
+    ASSERT_TRUE(s.compute(m.positions).ok());
+    const std::vector<double> full(s.depth().begin(), s.depth().end());
+    std::mt19937 rng(8);
+    for (int sweep = 0; sweep < 30; ++sweep) {
+      std::vector<Index> marked;
+      for (int k = 0; k < 1 + sweep; ++k)
+        marked.push_back(static_cast<Index>(rng() % m.triangles.size()));
+      const auto settled = s.compute_lazy(m.positions, marked);
+      ASSERT_TRUE(settled);
+      for (Index i = 0; i < m.positions.cols(); ++i)
+        if (s.settled(i)) {
+          EXPECT_EQ(s.depth()[i], full[i]);
+        }
+      for (const Index t : marked)
+        for (const Index v : m.triangles[t]) EXPECT_TRUE(s.settled(v));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tc
