@@ -39,5 +39,6 @@ void print_json(const nlohmann::json& value);
 // Subcommand registration; each is defined in cmd_<name>.cpp.
 void add_mesh_command(CLI::App& app, Context& ctx);
 void add_detect_command(CLI::App& app, Context& ctx);
+void add_respond_command(CLI::App& app, Context& ctx);
 
 }  // namespace tc::cli

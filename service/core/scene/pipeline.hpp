@@ -20,11 +20,13 @@ namespace tc {
 
 /// Scene-wide settings (the daemon reads them from its config file).
 struct PipelineConfig {
-  std::string broad_phase = "grid";  ///< grid | hash | sap | bvh
-  bool compute_stiffness = false;    ///< also return 3x3 df/dx blocks
-  double density_threshold = 0.0;    ///< kAuto: segment response when the mean edge length
-                                     ///< exceeds this fraction of the object's bbox diagonal
-                                     ///< (0 = implementation default)
+  /// grid | hash | sap | bvh; empty: detection's default (bvh, chosen by bench_detect).
+  /// The Pipeline constructor throws std::invalid_argument on any other name.
+  std::string broad_phase;
+  bool compute_stiffness = false;  ///< also return 3x3 df/dx blocks
+  /// kAuto: segment response when the intruder's RMS contact-tet edge length exceeds this
+  /// fraction of the contact extent (ResponseOptions::auto_threshold); 0 = default 0.25.
+  double density_threshold = 0.0;
 };
 
 /// One object's state in a frame.

@@ -20,8 +20,9 @@ enum class ResponseKind { kPoint, kSegment, kAuto };
 
 /// Per-object parameters, sent with the object's topology.
 struct ObjectParams {
-  double stiffness = 1e4;  ///< penalty stiffness k, N/m^2 (force = k * depth * area scale)
-  double damping = 0.0;    ///< penalty damping, N s/m per unit depth rate
+  double stiffness = 1e4;  ///< penalty stiffness k, N/m^2: N per metre of depth per metre
+                           ///< of intruding edge (docs/RESPONSE.md, ForceMeasure)
+  double damping = 0.0;    ///< penalty damping on the penetration rate, N s/m^2
   double max_force = 0.0;  ///< cap on one node's force magnitude, N; 0 = no cap
   bool is_static = false;  ///< static objects never move: fields are cached, and two
                            ///< static objects are never tested against each other

@@ -1,0 +1,250 @@
+#include "core/scene/pipeline.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include "core/detect/detect.hpp"
+#include "core/distance/depth_solver.hpp"
+#include "core/mesh/topology.hpp"
+#include "core/mesh/validate.hpp"
+#include "core/response/response.hpp"
+
+namespace tc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+// One registered object: its topology-derived data (built in set_topology) and its
+// per-frame state.
+struct SceneObject {
+  std::string name;
+  std::uint32_t version = 0;
+  ObjectParams params;
+  TetMesh mesh;  ///< tets, node ids, rest positions
+  Topology topology;
+  Positions positions;  ///< current frame's positions
+  std::unique_ptr<CollisionBody> body;
+  std::unique_ptr<DepthSolver> depth;
+  bool static_depth_ready = false;  ///< static objects: full map computed once
+  // Per-frame scratch.
+  std::vector<Index> marked;
+  bool involved = false;
+};
+
+struct Pipeline::Impl {
+  PipelineConfig config;
+  std::map<std::string, std::unique_ptr<SceneObject>> objects;  // sorted by name
+  Detector detector;
+  ResponseAccumulator accumulator;
+  std::vector<PairContacts> contacts;  // per touching pair, reused
+  PairResponse pair_response;
+};
+
+Pipeline::Pipeline(PipelineConfig config) : impl_(std::make_unique<Impl>()) {
+  impl_->config = std::move(config);
+  DetectOptions options;
+  if (!impl_->config.broad_phase.empty()) {
+    const auto kind = parse_broad_phase(impl_->config.broad_phase);
+    if (!kind)
+      throw std::invalid_argument("unknown broad phase '" + impl_->config.broad_phase +
+                                  "' (expected grid, hash, sap or bvh)");
+    options.broad_phase = *kind;
+  }
+  impl_->detector.set_options(options);
+}
+
+Pipeline::~Pipeline() = default;
+
+Status Pipeline::set_topology(const std::string& object, std::uint32_t version, TetMesh mesh,
+                              const ObjectParams& params) {
+  const ValidationReport report = validate_mesh(mesh);
+  if (Status st = require_valid(report, "object '" + object + "'"); !st) return st;
+  if (mesh.tets.empty()) return Error{ErrorCode::kInvalidMesh, "object '" + object + "': no tets"};
+  if (!(params.stiffness >= 0.0) || !std::isfinite(params.stiffness) || !(params.damping >= 0.0) ||
+      !std::isfinite(params.damping) || !(params.max_force >= 0.0) ||
+      !std::isfinite(params.max_force))
+    return Error{
+        ErrorCode::kInvalidArgument,
+        "object '" + object + "': stiffness, damping and max_force must be finite and >= 0"};
+  auto slot = std::make_unique<SceneObject>();
+  slot->name = object;
+  slot->version = version;
+  slot->params = params;
+  slot->topology = build_topology(mesh.tets, mesh.num_nodes());
+  slot->positions = mesh.positions;
+  slot->mesh = std::move(mesh);
+  slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology);
+  DepthSolverOptions depth_options;
+  depth_options.method = params.depth;
+  slot->depth = std::make_unique<DepthSolver>(std::span<const Tet>(slot->mesh.tets), slot->topology,
+                                              depth_options);
+  impl_->objects[object] = std::move(slot);
+  return {};
+}
+
+void Pipeline::remove_object(const std::string& object) {
+  impl_->objects.erase(object);
+}
+
+bool Pipeline::has_object(const std::string& object) const {
+  return impl_->objects.count(object) > 0;
+}
+
+FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectInput> states) {
+  const auto frame_start = Clock::now();
+  FrameOutput out;
+  out.frame = frame;
+  auto& objects = impl_->objects;
+
+  // 1. States: checked object by object; a bad one is rejected, the rest run.
+  for (const FrameObjectInput& state : states) {
+    const auto it = objects.find(state.object);
+    const std::string who = "object '" + state.object + "' frame " + std::to_string(frame);
+    if (it == objects.end()) {
+      out.errors.push_back({state.object, {ErrorCode::kUnknownObject, who + ": unknown object"}});
+      continue;
+    }
+    SceneObject& obj = *it->second;
+    if (state.topology_version != obj.version) {
+      out.errors.push_back({state.object,
+                            {ErrorCode::kStaleVersion,
+                             who + ": topology version " + std::to_string(state.topology_version) +
+                                 " is not the registered version " + std::to_string(obj.version)}});
+      continue;
+    }
+    if (state.positions.cols() != obj.mesh.num_nodes()) {
+      out.errors.push_back(
+          {state.object,
+           {ErrorCode::kInvalidArgument, who + ": " + std::to_string(state.positions.cols()) +
+                                             " positions for " +
+                                             std::to_string(obj.mesh.num_nodes()) + " nodes"}});
+      continue;
+    }
+    const ValidationReport report = validate_positions(state.positions, obj.mesh.tets);
+    if (Status st = require_valid(report, who); !st) {
+      out.errors.push_back({state.object, st.error()});
+      continue;
+    }
+    if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
+      obj.static_depth_ready = false;  // a "static" object moved: recompute once
+    obj.positions = state.positions;
+  }
+
+  // 2. Broad phase over objects: boxes, then the pairs that touch and are enabled.
+  auto t0 = Clock::now();
+  std::vector<SceneObject*> list;
+  list.reserve(objects.size());
+  for (auto& [name, obj] : objects) {
+    obj->body->set_positions(obj->positions);
+    obj->marked.clear();
+    obj->involved = false;
+    list.push_back(obj.get());
+  }
+  out.stats.objects = list.size();
+  std::vector<Aabb> boxes;
+  boxes.reserve(list.size());
+  for (const SceneObject* obj : list) boxes.push_back(obj->body->box());
+  const auto pairs = touching_object_pairs(boxes, [&](Index i, Index j) {
+    return !(list[i]->params.is_static && list[j]->params.is_static);
+  });
+  out.stats.broad_ms += ms_since(t0);
+
+  // 3. Detection per pair (the detector's inner loops run on TBB).
+  auto& contacts = impl_->contacts;
+  if (contacts.size() < pairs.size()) contacts.resize(pairs.size());
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    DetectStats ds;
+    SceneObject& a = *list[pairs[p].first];
+    SceneObject& b = *list[pairs[p].second];
+    impl_->detector.detect(*a.body, *b.body, contacts[p], &ds);
+    out.stats.broad_ms += ds.broad_ms;
+    out.stats.narrow_ms += ds.narrow_ms;
+    out.stats.candidate_pairs += ds.candidates;
+    out.stats.overlapping_pairs += ds.overlapping;
+    if (contacts[p].empty()) continue;
+    a.involved = b.involved = true;
+    a.marked.insert(a.marked.end(), contacts[p].marked_a.begin(), contacts[p].marked_a.end());
+    b.marked.insert(b.marked.end(), contacts[p].marked_b.begin(), contacts[p].marked_b.end());
+  }
+
+  // 4. Lazy depth maps of the involved objects, in parallel across objects. Static
+  //    objects compute their full map once and keep it.
+  t0 = Clock::now();
+  std::vector<SceneObject*> involved;
+  for (SceneObject* obj : list)
+    if (obj->involved) involved.push_back(obj);
+  std::vector<std::size_t> settled(involved.size(), 0);
+  std::vector<std::string> depth_errors(involved.size());
+  tbb::parallel_for(std::size_t{0}, involved.size(), [&](std::size_t i) {
+    SceneObject& obj = *involved[i];
+    std::sort(obj.marked.begin(), obj.marked.end());
+    obj.marked.erase(std::unique(obj.marked.begin(), obj.marked.end()), obj.marked.end());
+    if (obj.params.is_static) {
+      if (!obj.static_depth_ready) {
+        const Status st = obj.depth->compute(obj.positions);
+        if (!st) depth_errors[i] = st.error().message;
+        obj.static_depth_ready = st.ok();
+        settled[i] = obj.depth->settled_count();
+      }
+      return;
+    }
+    auto n = obj.depth->compute_lazy(obj.positions, obj.marked);
+    if (n) {
+      settled[i] = *n;
+    } else {
+      depth_errors[i] = n.error().message;
+    }
+  });
+  for (std::size_t i = 0; i < involved.size(); ++i) {
+    out.stats.settled_nodes += settled[i];
+    if (!depth_errors[i].empty())
+      out.errors.push_back({involved[i]->name, {ErrorCode::kInvalidArgument, depth_errors[i]}});
+  }
+  out.stats.depth_ms = ms_since(t0);
+
+  // 5. Response per pair, summed per object in pair order (deterministic).
+  t0 = Clock::now();
+  std::map<std::string, ObjectForces> totals;
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    if (contacts[p].empty()) continue;
+    SceneObject& a = *list[pairs[p].first];
+    SceneObject& b = *list[pairs[p].second];
+    const ResponseObject ra{&a.positions, a.mesh.tets, &a.topology, a.depth->depth(), nullptr};
+    const ResponseObject rb{&b.positions, b.mesh.tets, &b.topology, b.depth->depth(), nullptr};
+    ResponseOptions options = pair_options(a.params, b.params);
+    if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
+    if (impl_->config.density_threshold > 0.0)
+      options.auto_threshold = impl_->config.density_threshold;
+    PairResponse& response = impl_->pair_response;
+    const Status st = impl_->accumulator.compute(ra, rb, contacts[p], options, response);
+    if (!st) {
+      out.errors.push_back({a.name + "/" + b.name, st.error()});
+      continue;
+    }
+    out.stats.contacts += response.stats.point_contacts + response.stats.segment_contacts;
+    out.stats.max_depth = std::max(out.stats.max_depth, response.stats.max_depth);
+    if (!response.a.nodes.empty()) add_object_forces(totals[a.name], response.a);
+    if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
+  }
+  for (auto& [name, forces] : totals) {
+    cap_object_forces(forces, objects.at(name)->params.max_force);
+    forces.object = name;
+    out.forces.push_back(std::move(forces));
+  }
+  out.stats.response_ms = ms_since(t0);
+  out.stats.total_ms = ms_since(frame_start);
+  return out;
+}
+
+}  // namespace tc
