@@ -21,6 +21,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/detect/chunk_buffer.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
 #include "core/mesh/tet_mesh.hpp"
@@ -153,7 +154,7 @@ class BroadPhase {
   void bvh_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b, const BvhSide& bvh);
 
   // Buffers kept across calls.
-  std::vector<std::vector<TetPair>> parts_;           ///< per fixed chunk of side a
+  detail::ChunkBuffers<TetPair> parts_;               ///< per fixed chunk of side a
   std::vector<Index> cell_start_;                     ///< grid/hash: CSR offsets per cell
   std::vector<Index> cell_items_;                     ///< grid: index in b; hash: entry
   std::vector<std::array<std::int32_t, 4>> entries_;  ///< hash: (index in b, ix, iy, iz)

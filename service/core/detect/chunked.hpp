@@ -13,6 +13,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/detect/chunk_buffer.hpp"
+
 namespace tc::detail {
 
 /// Number of chunks of size `chunk` covering n items.
@@ -40,15 +42,14 @@ void for_chunks(std::size_t n, std::size_t chunk, const Body& body) {
 
 /// Resizes `parts` to `count` buffers and clears each (capacity is kept).
 template <typename T>
-void reset_parts(std::vector<std::vector<T>>& parts, std::size_t count) {
+void reset_parts(ChunkBuffers<T>& parts, std::size_t count) {
   if (parts.size() < count) parts.resize(count);
   for (std::size_t i = 0; i < count; ++i) parts[i].clear();
 }
 
 /// out = parts[0] + parts[1] + ... + parts[count - 1] (parallel copy).
 template <typename T>
-void concat_parts(const std::vector<std::vector<T>>& parts, std::size_t count,
-                  std::vector<T>& out) {
+void concat_parts(const ChunkBuffers<T>& parts, std::size_t count, std::vector<T>& out) {
   std::vector<std::size_t> offset(count + 1, 0);
   for (std::size_t i = 0; i < count; ++i) offset[i + 1] = offset[i] + parts[i].size();
   out.resize(offset[count]);

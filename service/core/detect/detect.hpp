@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/detect/broad_phase.hpp"
+#include "core/detect/chunk_buffer.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
 #include "core/mesh/tet_mesh.hpp"
@@ -143,19 +144,19 @@ class Detector {
   BroadPhase broad_;
   std::vector<Index> subset_a_, subset_b_;  ///< tets in the overlap box
   std::vector<Aabb> boxes_a_, boxes_b_;     ///< their boxes clipped to it
-  std::vector<std::vector<Index>> index_parts_;
-  std::vector<std::vector<Aabb>> box_parts_;
+  detail::ChunkBuffers<Index> index_parts_;
+  detail::ChunkBuffers<Aabb> box_parts_;
   std::vector<Index> box_slot_;  ///< scratch: tet of B -> index in subset_b_, or -1
   std::vector<TetPair> candidates_;
-  std::vector<std::vector<TetPair>> pair_parts_;
+  detail::ChunkBuffers<TetPair> pair_parts_;
   Geometry geom_a_, geom_b_;
   std::vector<std::uint64_t> keys_;
   Rows rows_a_, rows_b_;
   std::vector<Index> row_of_;       ///< scratch: tet of X -> its row, or -1
   std::vector<std::uint8_t> seen_;  ///< scratch: feature flags
   std::vector<Index> features_;
-  std::vector<std::vector<IntrudingNode>> node_parts_;
-  std::vector<std::vector<IntrudingEdge>> edge_parts_;
+  detail::ChunkBuffers<IntrudingNode> node_parts_;
+  detail::ChunkBuffers<IntrudingEdge> edge_parts_;
 };
 
 /// One-off detection between object A (positions_a 3 x n_a metres, tets_a m_a tets,

@@ -32,19 +32,21 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
 /// A tet with the derived geometry the tests below use, computed once per tet and frame
 /// so that a tet tested against many others does not redo it.
 struct TetGeometry {
-  TetCorners v;                      ///< corners, metres
-  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order
+  // Ordered by use: the box first (every pre-test), then what the point and segment
+  // tests read, then what only the overlap test reads.
+  Eigen::Vector3d lo, hi;            ///< bounding box
+  double scale = 0.0;                ///< largest box extent
+  bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
+  std::array<double, 4> n_inv;       ///< 1 / |n| (0 when |n| = 0)
   std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
                                      ///< outward unless flat
+  TetCorners v;                      ///< corners, metres
+  std::array<double, 4> n_len;       ///< |n|
+  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order
   std::array<double, 6> e2;          ///< squared edge lengths
   /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
   /// the other), kTetEdges order; unused when flat.
   std::array<Eigen::Vector3d, 6> arc;
-  std::array<double, 4> n_len;  ///< |n|
-  std::array<double, 4> n_inv;  ///< 1 / |n| (0 when |n| = 0)
-  Eigen::Vector3d lo, hi;       ///< bounding box
-  double scale = 0.0;           ///< largest box extent
-  bool flat = true;             ///< 6|V| <= 32 eps scale^3 (or non-finite)
 };
 
 /// Derived geometry of a tet given by its corners.
