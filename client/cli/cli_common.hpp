@@ -38,5 +38,7 @@ void print_json(const nlohmann::json& value);
 
 // Subcommand registration; each is defined in cmd_<name>.cpp.
 void add_mesh_command(CLI::App& app, Context& ctx);
+void add_distance_command(CLI::App& app, Context& ctx);
+void add_bench_command(CLI::App& app, Context& ctx);
 
 }  // namespace tc::cli

@@ -11,6 +11,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "tetcollide 0.1.0");
   tc::cli::Context ctx;
   tc::cli::add_mesh_command(app, ctx);
+  tc::cli::add_distance_command(app, ctx);
+  tc::cli::add_bench_command(app, ctx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
