@@ -127,13 +127,15 @@ int write_plot(const std::string& path, const std::vector<Row>& rows) {
       plot.color_names.push_back(r.method);
   }
   plot.shape_names = meshes;
-  // Errors of exactly zero have no place on a log axis: they are drawn at the floor.
+  // Errors below kPlotFloor percent (zero, or rounding: the marches run in float) have
+  // no place on a log axis: they are drawn at the floor.
+  constexpr double kPlotFloor = 1e-5;
   double smallest = 1e300;
   for (const Row& r : rows)
     if (!r.exact)
       for (const double e : {r.max_err, r.mean_err})
-        if (e > 0.0) smallest = std::min(smallest, rel(e, r.deepest));
-  const double floor = smallest < 1e300 ? smallest / 3.0 : 1e-6;
+        if (rel(e, r.deepest) >= kPlotFloor) smallest = std::min(smallest, rel(e, r.deepest));
+  const double floor = smallest < 1e300 ? std::max(kPlotFloor, smallest / 3.0) : kPlotFloor;
   bool clamped = false;
   for (const Row& r : rows) {
     if (r.exact) continue;
@@ -144,8 +146,8 @@ int write_plot(const std::string& path, const std::vector<Row>& rows) {
         static_cast<int>(std::find(meshes.begin(), meshes.end(), r.mesh) - meshes.begin());
     const auto y = [&](double e) {
       const double v = rel(e, r.deepest);
-      clamped = clamped || v <= 0.0;
-      return v > 0.0 ? v : floor;
+      clamped = clamped || v < floor;
+      return std::max(v, floor);
     };
     const double t = std::max(r.time_ms, 1e-4);
     plot.points.push_back({t, y(r.mean_err), color, shape, true});
@@ -155,7 +157,11 @@ int write_plot(const std::string& path, const std::vector<Row>& rows) {
   }
   plot.notes.push_back("filled: mean error");
   plot.notes.push_back("hollow: max error");
-  if (clamped) plot.notes.push_back("(zero error drawn at the bottom)");
+  if (clamped) {
+    char note[96];
+    std::snprintf(note, sizeof note, "error < %.2g %%: at the bottom", floor);
+    plot.notes.push_back(note);
+  }
   for (const Row& r : rows) {
     if (!r.exact) continue;
     char buf[160];
