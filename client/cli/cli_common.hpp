@@ -40,5 +40,7 @@ void print_json(const nlohmann::json& value);
 void add_mesh_command(CLI::App& app, Context& ctx);
 void add_detect_command(CLI::App& app, Context& ctx);
 void add_respond_command(CLI::App& app, Context& ctx);
+void add_distance_command(CLI::App& app, Context& ctx);
+void add_bench_command(CLI::App& app, Context& ctx);
 
 }  // namespace tc::cli

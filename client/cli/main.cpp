@@ -13,6 +13,8 @@ int main(int argc, char** argv) {
   tc::cli::add_mesh_command(app, ctx);
   tc::cli::add_detect_command(app, ctx);
   tc::cli::add_respond_command(app, ctx);
+  tc::cli::add_distance_command(app, ctx);
+  tc::cli::add_bench_command(app, ctx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

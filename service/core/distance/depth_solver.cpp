@@ -13,6 +13,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
@@ -35,10 +36,9 @@ constexpr float kInfF = std::numeric_limits<float>::infinity();
 /// distance; in practice 0 to 3 steps are taken).
 constexpr int kMaxDescentSteps = 32;
 /// How many pops ahead the bucket queue's nodes are prefetched (measured).
-constexpr std::size_t kPrefetchFar = 8;
+constexpr std::size_t kPrefetchFar = 12;
+constexpr std::size_t kPrefetchMid = 8;
 constexpr std::size_t kPrefetchNear = 4;
-/// CFFM descent: keep walking from a face whose closest point is interior (measured).
-constexpr bool kWalkAcrossInterior = true;
 
 template <int D>
 using Vecf = Eigen::Matrix<float, D, 1>;
@@ -90,6 +90,8 @@ enum class Mode {
   kFeaturePaper,         ///< CFFM as in the paper: a feature, ring seeding
   kFeaturePaperDescent,  ///< the same plus the descent when a node is finalised
   kFeatureDescent,       ///< a feature and its closest point; descent when finalised
+  kFeatureMultiStart,    ///< kFeatureDescent, plus descents from every settled
+                         ///< neighbour's feature
 };
 
 Csr csr_from_rows(const std::vector<std::vector<Index>>& rows) {
@@ -134,9 +136,12 @@ struct BasicDepthSolver<D>::Impl {
   std::vector<Element> elements;
   BoundarySurface<D> surface;                       ///< original node indices
   std::vector<std::array<Index, D>> simplices_int;  ///< internal node indices
-  /// D = 3: the one triangle across edge j of each triangle, or -1 when the edge has
-  /// no other triangle or several (non-manifold: then edge_simplices is read).
-  std::vector<std::array<Index, 3>> across;
+  /// The one feature across side j of each feature (D = 3: edge j of a triangle;
+  /// D = 2: endpoint j of a segment), or -1 when there is none or several (non-manifold:
+  /// then the CSR lists are read).
+  std::vector<std::array<Index, D>> across;
+  /// The node of across[t][j] that is not on side j (the "far" node), internal index.
+  std::vector<std::array<Index, D>> across_far;
   Csr vertex_simplices_int;               ///< num_boundary rows
   std::vector<Index> seed_simplex;        ///< num_boundary: one incident simplex
   std::vector<std::uint8_t> is_boundary;  ///< original
@@ -146,8 +151,16 @@ struct BasicDepthSolver<D>::Impl {
   std::vector<Rec<D>> rec;     ///< internal
   std::vector<Index> feature;  ///< internal: CPFM closest boundary node, CFFM simplex
   std::vector<Vecf<D>> point;  ///< internal, kFeatureDescent: closest point on `feature`
-  std::vector<std::array<Vecf<D>, D>> corners;  ///< CFFM: float corners of each feature
-  std::vector<Vecd<D>> boundary_pos;            ///< internal boundary nodes' positions, double
+  /// CFFM, per feature and frame: corners, a normal of its plane (line in 2D), and the
+  /// far node of the feature across each side j (so the features across its sides are
+  /// evaluated from this one record: they share side j's nodes).
+  struct FeatureFrame {
+    Vecf<D> c[D];
+    Vecf<D> far[D];
+    Vecf<D> normal;
+  };
+  std::vector<FeatureFrame> frames;
+  std::vector<Vecd<D>> boundary_pos;  ///< internal boundary nodes' positions, double
   std::vector<Index> settled_list;
   std::vector<detail::QueueEntry> stage;
   std::vector<double> depth;        ///< original order
@@ -232,14 +245,29 @@ struct BasicDepthSolver<D>::Impl {
     simplices_int.resize(surface.simplices.size());
     for (std::size_t t = 0; t < surface.simplices.size(); ++t)
       for (int k = 0; k < D; ++k) simplices_int[t][k] = inv[surface.simplices[t][k]];
-    if constexpr (D == 3) {
-      across.assign(surface.simplices.size(), {-1, -1, -1});
-      for (std::size_t t = 0; t < surface.simplices.size(); ++t)
-        for (int j = 0; j < 3; ++j) {
+    across.assign(surface.simplices.size(), {});
+    across_far.assign(surface.simplices.size(), {});
+    for (std::size_t t = 0; t < surface.simplices.size(); ++t)
+      for (int j = 0; j < D; ++j) {
+        across[t][j] = -1;
+        across_far[t][j] = -1;
+        std::vector<Index> others;
+        if constexpr (D == 3) {
           const auto row = surface.edge_simplices.row(static_cast<Index>(3 * t + j));
-          if (row.size() == 1) across[t][j] = row[0];
+          others.assign(row.begin(), row.end());
+        } else {
+          for (const Index o : surface.vertex_simplices.row(surface.simplices[t][j]))
+            if (o != static_cast<Index>(t)) others.push_back(o);
         }
-    }
+        if (others.size() != 1) continue;
+        across[t][j] = others[0];
+        // Side j of t: nodes j and j + 1 (3D edge) or node j (2D endpoint).
+        for (const Index v : surface.simplices[others[0]]) {
+          const bool on_side =
+              v == surface.simplices[t][j] || (D == 3 && v == surface.simplices[t][(j + 1) % D]);
+          if (!on_side) across_far[t][j] = inv[v];
+        }
+      }
     std::vector<std::vector<Index>> ring(static_cast<std::size_t>(num_boundary));
     seed_simplex.assign(static_cast<std::size_t>(num_boundary), -1);
     for (Index b = 0; b < num_boundary; ++b) {
@@ -252,7 +280,8 @@ struct BasicDepthSolver<D>::Impl {
     rec.assign(nn, Rec<D>{});
     for (auto& r : rec) r.key = kInfF;
     feature.assign(nn, -1);
-    if (options.method == DepthMethod::kCffm && options.cffm == CffmVariant::kDescent)
+    if (options.method == DepthMethod::kCffm &&
+        (options.cffm == CffmVariant::kDescent || options.cffm == CffmVariant::kMultiStart))
       point.assign(nn, Vecf<D>::Zero());
     depth.assign(nn, kInf);
     boundary_pos.assign(static_cast<std::size_t>(num_boundary), Vecd<D>::Zero());
@@ -299,14 +328,23 @@ struct BasicDepthSolver<D>::Impl {
   }
 
   void load_corners(Index s, Vecf<D>* c) const {
-    for (int k = 0; k < D; ++k) c[k] = corners[s][k];
+    for (int k = 0; k < D; ++k) c[k] = frames[s].c[k];
   }
 
-  // CFFM: one compact record of corners per feature, from the gathered positions.
-  void gather_corners() {
-    corners.resize(simplices_int.size());
-    for (std::size_t t = 0; t < simplices_int.size(); ++t)
-      for (int k = 0; k < D; ++k) corners[t][k] = pos_of<D>(rec[simplices_int[t][k]]);
+  // CFFM: one compact record per feature, from the gathered positions.
+  void gather_frames() {
+    frames.resize(simplices_int.size());
+    for (std::size_t t = 0; t < simplices_int.size(); ++t) {
+      FeatureFrame& f = frames[t];
+      for (int k = 0; k < D; ++k) f.c[k] = pos_of<D>(rec[simplices_int[t][k]]);
+      for (int j = 0; j < D; ++j)
+        f.far[j] = across_far[t][j] >= 0 ? pos_of<D>(rec[across_far[t][j]]) : f.c[j];
+      if constexpr (D == 3) {
+        f.normal = (f.c[1] - f.c[0]).cross(f.c[2] - f.c[0]);
+      } else {
+        f.normal = Vecf<D>(f.c[0].y() - f.c[1].y(), f.c[1].x() - f.c[0].x());
+      }
+    }
   }
 
   // Offers what u holds to its neighbours (the paper's update rule: a node takes it
@@ -317,7 +355,8 @@ struct BasicDepthSolver<D>::Impl {
     const Index f = feature[u];
     const Index* it = adjacency.indices.data() + adjacency.offsets[u];
     const Index* const end = adjacency.indices.data() + adjacency.offsets[u + 1];
-    if constexpr (kMode == Mode::kPoint || kMode == Mode::kFeatureDescent) {
+    if constexpr (kMode == Mode::kPoint || kMode == Mode::kFeatureDescent ||
+                  kMode == Mode::kFeatureMultiStart) {
       // Point propagation: CPFM's boundary node, or CFFM's closest point on the feature.
       const Vecf<D> xf = kMode == Mode::kPoint ? pos_of<D>(rec[f]) : point[u];
       for (; it != end; ++it) {
@@ -326,7 +365,7 @@ struct BasicDepthSolver<D>::Impl {
         if (d < r.key) {
           r.key = d;
           feature[*it] = f;
-          if constexpr (kMode == Mode::kFeatureDescent) point[*it] = xf;
+          if constexpr (kMode != Mode::kPoint) point[*it] = xf;
           push(d, *it);
         }
       }
@@ -384,6 +423,7 @@ struct BasicDepthSolver<D>::Impl {
     Index prev = -1;
     for (int step = 0; step < kMaxDescentSteps; ++step) {
       Index best = s;
+      bool best_known = true;  // q holds best's closest point
       const auto consider = [&](std::span<const Index> candidates) {
         for (const Index cand : candidates) {
           if (cand == s || cand == prev) continue;
@@ -394,42 +434,104 @@ struct BasicDepthSolver<D>::Impl {
             best = cand;
             q = cq;
             qd = cd;
+            best_known = true;
           }
         }
       };
       const int loc = static_cast<int>(q.loc);
+      const bool interior = loc == (D == 3 ? static_cast<int>(FeatureLoc::kInterior)
+                                           : static_cast<int>(FeatureLoc::kE01));
       if (loc < D) {
         // At a vertex: the features around it.
         consider(vertex_simplices_int.row(simplices_int[s][loc]));
-      } else if constexpr (D == 3) {
-        if (loc < static_cast<int>(FeatureLoc::kInterior)) {
-          consider(across_edge(s, loc - static_cast<int>(FeatureLoc::kE01)));
-        } else {
-          // Inside the face: a local minimum, but on a faceted surface every face whose
-          // plane foot lies inside it is one; the faces across the three edges may be
-          // nearer (docs/DEPTH_MAPS.md, "CFFM variants").
-          for (int j = 0; j < 3 && kWalkAcrossInterior; ++j) consider(across_edge(s, j));
-        }
       } else {
-        // D = 2, inside the segment: the segments at both ends, for the same reason.
-        for (int j = 0; j < 2 && kWalkAcrossInterior; ++j)
-          consider(vertex_simplices_int.row(simplices_int[s][j]));
+        // On an edge or inside the feature: the features across its sides. Inside is a
+        // local minimum, and so is an edge point when the face across it is not nearer,
+        // but seen from inside a curved object a faceted surface has many such minima
+        // and the features across the sides are often nearer (docs/DEPTH_MAPS.md, "CFFM
+        // variants"). With the closest point inside, a neighbour whose far node is not on
+        // x's side of the plane (a convex or flat side) lies beyond the plane, no nearer
+        // than the plane distance: it is skipped, which changes no result.
+        const FeatureFrame& fr = frames[s];
+        const float side = fr.normal.dot(x - fr.c[0]);
+        for (int j = 0; j < D; ++j) {
+          const Index t = across[s][j];
+          if (t < 0) {
+            consider(across_side(s, j));
+            continue;
+          }
+          if (t == prev) continue;
+          if (interior && side * fr.normal.dot(fr.far[j] - fr.c[0]) <= 0.0f) continue;
+          // The feature across side j, from this record: side j's nodes and the far node.
+          Vecf<D> tc[D];
+          if constexpr (D == 3) {
+            tc[0] = fr.c[j];
+            tc[1] = fr.c[(j + 1) % 3];
+            tc[2] = fr.far[j];
+          } else {
+            tc[0] = fr.c[j];
+            tc[1] = fr.far[j];
+          }
+          const float cd = (x - simplex_closest_point<D, float>(x, tc).point).squaredNorm();
+          if (cd < qd) {
+            best = t;
+            qd = cd;
+            best_known = false;  // its closest point's place is in another vertex order
+          }
+        }
       }
       if (best == s) break;
+      if (!best_known) {
+        load_corners(best, c);
+        q = simplex_closest_point<D, float>(x, c);
+        qd = (x - q.point).squaredNorm();
+      }
       prev = s;
       s = best;
     }
     feature[u] = s;
-    if constexpr (kMode == Mode::kFeatureDescent) point[u] = q.point;
+    if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeatureMultiStart)
+      point[u] = q.point;
     rec[u].key = qd;
   }
 
-  std::span<const Index> across_edge(Index s, int j) const {
+  // kFeatureMultiStart: after the descent from u's own feature, descend also from the
+  // feature of every settled neighbour (each distinct feature once) and keep the
+  // nearest result. Escapes the local minima a single walk stops in, at a price.
+  void multi_start(Index u) {
+    Index best_f = feature[u];
+    float best_key = rec[u].key;
+    Vecf<D> best_point = point[u];
+    constexpr int kMaxStarts = 64;
+    Index tried[kMaxStarts];
+    int count = 0;
+    tried[count++] = best_f;
+    for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
+      const Index v = adjacency.indices[k];
+      if (!is_final(rec[v].key)) continue;
+      const Index f = feature[v];
+      if (std::find(tried, tried + count, f) != tried + count) continue;
+      tried[count++] = f;
+      feature[u] = f;
+      descend<Mode::kFeatureMultiStart>(u);
+      if (rec[u].key < best_key) {
+        best_key = rec[u].key;
+        best_f = feature[u];
+        best_point = point[u];
+      }
+    }
+    feature[u] = best_f;
+    rec[u].key = best_key;
+    point[u] = best_point;
+  }
+
+  // The features across side j of feature s.
+  std::span<const Index> across_side(Index s, int j) const {
+    if (across[s][j] >= 0) return {&across[s][j], 1};
     if constexpr (D == 3) {
-      if (across[s][j] >= 0) return {&across[s][j], 1};
       return surface.edge_simplices.row(3 * s + j);
     } else {
-      return {};
+      return vertex_simplices_int.row(simplices_int[s][j]);
     }
   }
 
@@ -444,7 +546,8 @@ struct BasicDepthSolver<D>::Impl {
     for (Index b = 0; b < num_boundary; ++b) {
       rec[b].key = -0.0f;
       feature[b] = kMode == Mode::kPoint ? b : seed_simplex[b];
-      if constexpr (kMode == Mode::kFeatureDescent) point[b] = pos_of<D>(rec[b]);
+      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeatureMultiStart)
+        point[b] = pos_of<D>(rec[b]);
       settled_list.push_back(b);
       if (lazy && mark[b] == stamp) --remaining;
     }
@@ -468,17 +571,22 @@ struct BasicDepthSolver<D>::Impl {
           __builtin_prefetch(&adjacency.offsets[a]);
           if constexpr (kMode != Mode::kPoint) __builtin_prefetch(&feature[a]);
         }
-        if (const Index a = q.peek(kPrefetchNear); a >= 0) {
-          __builtin_prefetch(adjacency.indices.data() + adjacency.offsets[a]);
-          if constexpr (kMode != Mode::kPoint) {
-            __builtin_prefetch(&corners[feature[a]]);
-            if constexpr (D == 3) __builtin_prefetch(&across[feature[a]]);
+        if constexpr (kMode != Mode::kPoint) {
+          if (const Index a = q.peek(kPrefetchMid); a >= 0) {
+            const char* f = reinterpret_cast<const char*>(&frames[feature[a]]);
+            __builtin_prefetch(f);
+            __builtin_prefetch(f + sizeof(FeatureFrame) - 1);
+            __builtin_prefetch(&across[feature[a]]);
           }
         }
+        if (const Index a = q.peek(kPrefetchNear); a >= 0)
+          __builtin_prefetch(adjacency.indices.data() + adjacency.offsets[a]);
       }
       if (is_final(rec[u].key)) continue;
-      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeaturePaperDescent)
+      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeaturePaperDescent ||
+                    kMode == Mode::kFeatureMultiStart)
         descend<kMode>(u);
+      if constexpr (kMode == Mode::kFeatureMultiStart) multi_start(u);
       rec[u].key = -rec[u].key;
       settled_list.push_back(u);
       if (lazy && mark[u] == stamp && --remaining == 0) break;
@@ -527,6 +635,9 @@ struct BasicDepthSolver<D>::Impl {
               return;
             case CffmVariant::kPaperDescent:
               march<Mode::kFeaturePaperDescent>(q, lazy, remaining);
+              return;
+            case CffmVariant::kMultiStart:
+              march<Mode::kFeatureMultiStart>(q, lazy, remaining);
               return;
             case CffmVariant::kDescent:
               break;
@@ -581,7 +692,7 @@ Status BasicDepthSolver<D>::compute(const Points& positions) {
     return {};
   }
   if (Status st = s.gather(positions); !st) return st;
-  if (s.options.method == DepthMethod::kCffm) s.gather_corners();
+  if (s.options.method == DepthMethod::kCffm) s.gather_frames();
   s.run_march(positions, false, 0);
   return {};
 }
@@ -617,7 +728,7 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
     std::sort(s.marked.begin(), s.marked.end());
     s.run_exact(positions, s.marked);
   } else {
-    if (s.options.method == DepthMethod::kCffm) s.gather_corners();
+    if (s.options.method == DepthMethod::kCffm) s.gather_frames();
     s.run_march(positions, true, s.marked.size());
   }
   return s.settled;

@@ -31,17 +31,23 @@
 
 namespace tc {
 
-/// How CFFM chooses the feature a node keeps (docs/DEPTH_MAPS.md, "CFFM variants").
+/// How CFFM chooses the feature a node keeps (docs/DEPTH_MAPS.md, "CFFM variants", has
+/// the measured error and cost of each).
 enum class CffmVariant : std::uint8_t {
   /// The paper's rule: a boundary node offers its neighbours all its incident boundary
-  /// triangles (segments in 2D); any other node offers the one feature it holds.
+  /// triangles (segments in 2D); any other node offers the one feature it holds; a
+  /// node keeps the offer at the smallest point-to-feature distance.
   kPaper,
-  /// Boundary nodes offer one incident feature; a node being finalised walks the
-  /// boundary surface from its feature to a local minimum of the distance (to the
-  /// features around the closest point's vertex or across its edge). Default.
+  /// Default. A node offers its feature's closest point (an offer costs what a CPFM
+  /// offer costs); a node being finalised walks the boundary surface from the feature
+  /// it was offered to a local minimum of the distance (to the features around the
+  /// closest point's vertex, or across the feature's sides).
   kDescent,
-  /// kPaper's seeding plus kDescent's walk (the most accurate, the slowest).
+  /// kPaper's offers plus kDescent's walk.
   kPaperDescent,
+  /// kDescent, plus walks from the feature of every settled neighbour, keeping the
+  /// nearest: escapes the local minima of a faceted surface, about 10x kDescent's cost.
+  kMultiStart,
 };
 
 /// Priority queue of the march (measured in docs/DEPTH_MAPS.md).

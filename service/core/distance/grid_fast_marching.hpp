@@ -42,6 +42,10 @@ class GridFastMarching {
   [[nodiscard]] int resolution() const { return n_; }
   /// The grid values of the last compute (N^D, x fastest), metres.
   [[nodiscard]] const std::vector<double>& grid() const { return value_; }
+  /// Position of grid point 0 and the spacing per axis (metres) of the last compute;
+  /// point (i, j, k) is at origin + (i, j, k) .* spacing.
+  [[nodiscard]] const Eigen::Matrix<double, D, 1>& origin() const { return lo_; }
+  [[nodiscard]] const Eigen::Matrix<double, D, 1>& spacing() const { return h_; }
   /// Grid points seeded with an exact distance in the last compute.
   [[nodiscard]] std::size_t seeded_points() const { return seeded_; }
 
