@@ -102,8 +102,7 @@ class Parser {
   void section(const YAML::Node& node, const std::string& prefix,
                const std::vector<Key>& keys) const {
     if (node.IsNull()) return;
-    if (!node.IsMap())
-      fail(ErrorCode::kParse, node, "'" + prefix + "' must be a map of keys");
+    if (!node.IsMap()) fail(ErrorCode::kParse, node, "'" + prefix + "' must be a map of keys");
     for (const auto& entry : node) {
       const std::string key = entry.first.as<std::string>();
       const std::string full = prefix.empty() ? key : prefix + "." + key;
@@ -135,30 +134,29 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
                           " is not supported (this daemon reads version 1)"};
 
   const auto dds = [&](const YAML::Node& n, const std::string& k) {
-    p.section(n, k,
-              {{"domain",
-                [&](const YAML::Node& v, const std::string& kk) {
-                  c.domain = static_cast<std::uint32_t>(p.integer(v, kk, 0, kMaxDomainId));
-                }},
-               {"service_id",
-                [&](const YAML::Node& v, const std::string& kk) {
-                  c.service_id = p.text(v, kk);
-                  if (c.service_id.size() > tetcollide_MAX_SERVICE_ID)
-                    p.fail(ErrorCode::kInvalidArgument, v,
-                           "'" + kk + "' is longer than " +
-                               std::to_string(tetcollide_MAX_SERVICE_ID) + " characters");
-                }},
-               {"partition",
-                [&](const YAML::Node& v, const std::string& kk) { c.partition = p.text(v, kk); }},
-               {"scenes",
-                [&](const YAML::Node& v, const std::string& kk) { c.scenes = p.text_list(v, kk); }},
-               {"cyclonedds_config",
-                [&](const YAML::Node& v, const std::string& kk) {
-                  c.cyclonedds_config = p.text(v, kk);
-                }},
-               {"status_period_s", [&](const YAML::Node& v, const std::string& kk) {
-                  c.status_period_s = p.real(v, kk, 0.01, 3600.0);
-                }}});
+    p.section(
+        n, k,
+        {{"domain",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.domain = static_cast<std::uint32_t>(p.integer(v, kk, 0, kMaxDomainId));
+          }},
+         {"service_id",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.service_id = p.text(v, kk);
+            if (c.service_id.size() > tetcollide_MAX_SERVICE_ID)
+              p.fail(ErrorCode::kInvalidArgument, v,
+                     "'" + kk + "' is longer than " + std::to_string(tetcollide_MAX_SERVICE_ID) +
+                         " characters");
+          }},
+         {"partition",
+          [&](const YAML::Node& v, const std::string& kk) { c.partition = p.text(v, kk); }},
+         {"scenes",
+          [&](const YAML::Node& v, const std::string& kk) { c.scenes = p.text_list(v, kk); }},
+         {"cyclonedds_config",
+          [&](const YAML::Node& v, const std::string& kk) { c.cyclonedds_config = p.text(v, kk); }},
+         {"status_period_s", [&](const YAML::Node& v, const std::string& kk) {
+            c.status_period_s = p.real(v, kk, 0.01, 3600.0);
+          }}});
   };
   const auto frames = [&](const YAML::Node& n, const std::string& k) {
     p.section(n, k,
@@ -207,17 +205,16 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
                 }}});
   };
   const auto log = [&](const YAML::Node& n, const std::string& k) {
-    p.section(n, k,
-              {{"level",
-                [&](const YAML::Node& v, const std::string& kk) {
-                  c.log_level =
-                      p.choice(v, kk, {"trace", "debug", "info", "warn", "error", "off"});
-                }},
-               {"file",
-                [&](const YAML::Node& v, const std::string& kk) { c.log_file = p.text(v, kk); }},
-               {"timing_summary_period_s", [&](const YAML::Node& v, const std::string& kk) {
-                  c.timing_summary_period_s = p.real(v, kk, 0.0, 86400.0);
-                }}});
+    p.section(
+        n, k,
+        {{"level",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.log_level = p.choice(v, kk, {"trace", "debug", "info", "warn", "error", "off"});
+          }},
+         {"file", [&](const YAML::Node& v, const std::string& kk) { c.log_file = p.text(v, kk); }},
+         {"timing_summary_period_s", [&](const YAML::Node& v, const std::string& kk) {
+            c.timing_summary_period_s = p.real(v, kk, 0.0, 86400.0);
+          }}});
   };
 
   p.section(root, "",
@@ -246,7 +243,8 @@ Expected<DaemonConfig> parse_config(std::string_view text, const std::string& na
   } catch (const YAML::Exception& e) {
     return Error{ErrorCode::kParse, parser.where(e.mark) + ": " + e.msg};
   }
-  if (Status st = check_config(config); !st) return Error{st.error().code, name + ": " + st.error().message};
+  if (Status st = check_config(config); !st)
+    return Error{st.error().code, name + ": " + st.error().message};
   return config;
 }
 
@@ -267,9 +265,9 @@ Status check_config(const DaemonConfig& c) {
     return Error{ErrorCode::kInvalidArgument, "dds.service_id is too long"};
   for (const auto& pattern : c.scenes)
     if (pattern.empty() || pattern.size() > tetcollide_MAX_SCENE_NAME)
-      return Error{ErrorCode::kInvalidArgument,
-                   "dds.scenes: a pattern must have 1 to " +
-                       std::to_string(tetcollide_MAX_SCENE_NAME) + " characters"};
+      return Error{ErrorCode::kInvalidArgument, "dds.scenes: a pattern must have 1 to " +
+                                                    std::to_string(tetcollide_MAX_SCENE_NAME) +
+                                                    " characters"};
   if (c.limits.max_nodes < 4 || c.limits.max_nodes > tetcollide_MAX_NODES)
     return Error{ErrorCode::kInvalidArgument, "limits.max_nodes is out of range"};
   if (c.limits.max_tets < 1 || c.limits.max_tets > tetcollide_MAX_TETS)

@@ -23,12 +23,12 @@ struct Limits {
 
 struct DaemonConfig {
   // dds:
-  std::uint32_t domain = 0;            ///< DDS domain id, 0..232
-  std::string service_id;              ///< "" = tetcollided-<host>-<pid>
-  std::string partition;               ///< DDS partition of every reader/writer, "" = default
-  std::vector<std::string> scenes;     ///< scene name patterns served (fnmatch); empty = all
-  std::string cyclonedds_config;       ///< Cyclone config (XML or file://), "" = CYCLONEDDS_URI
-  double status_period_s = 1.0;        ///< ServiceStatus heartbeat period, seconds
+  std::uint32_t domain = 0;         ///< DDS domain id, 0..232
+  std::string service_id;           ///< "" = tetcollided-<host>-<pid>
+  std::string partition;            ///< DDS partition of every reader/writer, "" = default
+  std::vector<std::string> scenes;  ///< scene name patterns served (fnmatch); empty = all
+  std::string cyclonedds_config;    ///< Cyclone config (XML or file://), "" = CYCLONEDDS_URI
+  double status_period_s = 1.0;     ///< ServiceStatus heartbeat period, seconds
 
   // threads:
   int threads = 0;  ///< worker threads running scene pipelines; 0 = one per core
@@ -45,9 +45,9 @@ struct DaemonConfig {
   Limits limits;
 
   // log:
-  std::string log_level = "info";          ///< trace | debug | info | warn | error | off
-  std::string log_file;                    ///< "" = stderr only
-  double timing_summary_period_s = 10.0;   ///< info line with frame-time percentiles; 0 = off
+  std::string log_level = "info";         ///< trace | debug | info | warn | error | off
+  std::string log_file;                   ///< "" = stderr only
+  double timing_summary_period_s = 10.0;  ///< info line with frame-time percentiles; 0 = off
 };
 
 /// Parses a configuration document. Keys not given keep their defaults; unknown keys,

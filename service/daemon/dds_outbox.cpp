@@ -47,9 +47,8 @@ void copy_cut(char (&field)[N], std::string_view text) {
 Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol::Topic topic,
                      dds_entity_t& out) {
   const auto qos = protocol::topic_qos(topic);
-  const dds_entity_t t =
-      dds_create_topic(participant, protocol::topic_descriptor(topic), protocol::topic_name(topic),
-                       qos.get(), nullptr);
+  const dds_entity_t t = dds_create_topic(participant, protocol::topic_descriptor(topic),
+                                          protocol::topic_name(topic), qos.get(), nullptr);
   if (t < 0)
     return Error{ErrorCode::kIo, std::string("dds_create_topic(") + protocol::topic_name(topic) +
                                      "): " + protocol::dds_error(t)};
@@ -122,8 +121,7 @@ void DdsOutbox::publish_stats(const StatsMessage& m) {
   s.contacts = m.core.contacts;
   s.max_depth = m.core.max_depth;
   s.dropped_frames = m.dropped_frames;
-  if (const dds_return_t rc = dds_write(stats_writer_, &s); rc < 0)
-    write_failed("FrameStats", rc);
+  if (const dds_return_t rc = dds_write(stats_writer_, &s); rc < 0) write_failed("FrameStats", rc);
 }
 
 void DdsOutbox::publish_status(const StatusMessage& m) {

@@ -6,10 +6,9 @@ namespace tc::daemon {
 namespace {
 
 auto find_object(std::vector<PendingState>& pending, std::string_view object) {
-  return std::lower_bound(pending.begin(), pending.end(), object,
-                          [](const PendingState& s, std::string_view name) {
-                            return s.object < name;
-                          });
+  return std::lower_bound(
+      pending.begin(), pending.end(), object,
+      [](const PendingState& s, std::string_view name) { return s.object < name; });
 }
 
 }  // namespace

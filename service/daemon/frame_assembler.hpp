@@ -28,9 +28,9 @@ struct PendingState {
   std::string object;
   std::uint32_t version = 0;
   std::int64_t frame = 0;
-  Positions positions;               ///< 3 x n, metres; empty when rejected
+  Positions positions;  ///< 3 x n, metres; empty when rejected
   Clock::time_point received{};
-  std::int32_t rejected_code = 0;    ///< STATUS_* != 0 when rejected
+  std::int32_t rejected_code = 0;  ///< STATUS_* != 0 when rejected
   std::string rejected_message;
 };
 
@@ -38,7 +38,7 @@ struct AssembledFrame {
   std::int64_t frame = 0;
   std::vector<PendingState> states;  ///< sorted by object name
   Clock::time_point first_received{};
-  bool complete = false;             ///< every expected object sent this frame
+  bool complete = false;  ///< every expected object sent this frame
 };
 
 class FrameAssembler {

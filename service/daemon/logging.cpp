@@ -14,8 +14,8 @@ namespace tc::daemon {
 Status setup_logging(const std::string& level, const std::string& file) {
   const auto lvl = spdlog::level::from_str(level);
   if (lvl == spdlog::level::off && level != "off")
-    return Error{ErrorCode::kInvalidArgument, "unknown log level '" + level +
-                                                  "' (trace, debug, info, warn, error, off)"};
+    return Error{ErrorCode::kInvalidArgument,
+                 "unknown log level '" + level + "' (trace, debug, info, warn, error, off)"};
   std::vector<spdlog::sink_ptr> sinks;
   sinks.push_back(std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
   if (!file.empty()) {

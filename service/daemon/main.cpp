@@ -5,12 +5,12 @@
 //
 // Exit codes: 0 clean stop (SIGINT/SIGTERM), 1 runtime failure (DDS), 2 usage,
 // 3 bad configuration.
+#include <pthread.h>
+#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
 #include <optional>
-#include <pthread.h>
-#include <spdlog/spdlog.h>
 #include <thread>
 
 #include "config.hpp"
@@ -36,8 +36,9 @@ int main(int argc, char** argv) {
   std::string config_file;
   std::optional<std::uint32_t> domain;
   std::string log_level;
-  app.add_option("--config", config_file, "Configuration file (YAML, version 1); "
-                                          "default: the embedded defaults")
+  app.add_option("--config", config_file,
+                 "Configuration file (YAML, version 1); "
+                 "default: the embedded defaults")
       ->check(CLI::ExistingFile);
   app.add_option("--domain", domain, "DDS domain id (overrides dds.domain)")
       ->check(CLI::Range(0, 232));
@@ -78,8 +79,7 @@ int main(int argc, char** argv) {
   }
 
   spdlog::info("tetcollided 0.1.0 starting (config {}, domain {})",
-               config_file.empty() ? std::string("embedded defaults") : config_file,
-               config.domain);
+               config_file.empty() ? std::string("embedded defaults") : config_file, config.domain);
   tc::daemon::Service service(config);
   if (tc::Status st = service.start(); !st) {
     spdlog::error("start failed: {}", st.error().message);

@@ -19,10 +19,10 @@ struct ForcesMessage {
   std::string_view object;
   std::int64_t frame = 0;
   std::uint32_t topology_version = 0;
-  std::int32_t status = 0;             ///< STATUS_*
-  std::span<const Index> nodes;        ///< k sorted node indices
-  std::span<const double> forces;      ///< 3k, newtons
-  std::span<const double> stiffness;   ///< 9k row-major df/dx blocks, or empty
+  std::int32_t status = 0;            ///< STATUS_*
+  std::span<const Index> nodes;       ///< k sorted node indices
+  std::span<const double> forces;     ///< 3k, newtons
+  std::span<const double> stiffness;  ///< 9k row-major df/dx blocks, or empty
 };
 
 /// One scene's frame timings and counts (FrameStats topic).
@@ -31,7 +31,7 @@ struct StatsMessage {
   std::int64_t frame = 0;
   double assembly_ms = 0.0;
   double queue_ms = 0.0;
-  FrameStats core;        ///< the pipeline's stage timings and counts
+  FrameStats core;  ///< the pipeline's stage timings and counts
   double publish_ms = 0.0;
   std::uint32_t objects = 0;
   std::uint32_t states = 0;
@@ -45,7 +45,7 @@ enum class ServiceState { kStarting, kReady, kStopping };
 /// A life-cycle event, a registration or an error (ServiceStatus topic).
 struct StatusMessage {
   StatusKind kind = StatusKind::kError;
-  std::int32_t code = 0;                ///< STATUS_*
+  std::int32_t code = 0;  ///< STATUS_*
   std::string scene;
   std::string object;
   std::uint32_t topology_version = 0;

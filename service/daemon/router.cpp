@@ -52,8 +52,7 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
     return;
   }
   std::string text = message;
-  if (t.suppressed > 0)
-    text += " (" + std::to_string(t.suppressed) + " similar errors suppressed)";
+  if (t.suppressed > 0) text += " (" + std::to_string(t.suppressed) + " similar errors suppressed)";
   t.last = now;
   t.suppressed = 0;
   spdlog::warn("{}/{}: rejected ({}): {}", printable(scene), printable(object),

@@ -69,16 +69,17 @@ StateView view_of(const tetcollide_MeshState& s) noexcept {
 }
 
 Status validate_name(std::string_view name, std::size_t max_length, const char* what) {
-  if (name.empty()) return Error{ErrorCode::kInvalidArgument, std::string("empty ") + what + " name"};
+  if (name.empty())
+    return Error{ErrorCode::kInvalidArgument, std::string("empty ") + what + " name"};
   if (name.size() > max_length)
-    return Error{ErrorCode::kInvalidArgument, std::string(what) + " name longer than " +
-                                                  std::to_string(max_length) + " bytes"};
+    return Error{ErrorCode::kInvalidArgument,
+                 std::string(what) + " name longer than " + std::to_string(max_length) + " bytes"};
   for (std::size_t i = 0; i < name.size(); ++i) {
     const auto c = static_cast<unsigned char>(name[i]);
     if (c < 0x20 || c == 0x7f)
-      return Error{ErrorCode::kInvalidArgument, std::string(what) +
-                                                    " name has a control character at byte " +
-                                                    std::to_string(i)};
+      return Error{
+          ErrorCode::kInvalidArgument,
+          std::string(what) + " name has a control character at byte " + std::to_string(i)};
   }
   return {};
 }
@@ -90,12 +91,12 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   // Sizes first: nothing below walks an array longer than the limits allow.
   if (coords > 3 * static_cast<std::size_t>(limits.max_nodes))
     return fail(ErrorCode::kOversized, t.scene, t.object,
-                std::to_string(coords / 3) + " nodes exceed limits.max_nodes = " +
-                    std::to_string(limits.max_nodes));
+                std::to_string(coords / 3) +
+                    " nodes exceed limits.max_nodes = " + std::to_string(limits.max_nodes));
   if (indices > 4 * static_cast<std::size_t>(limits.max_tets))
     return fail(ErrorCode::kOversized, t.scene, t.object,
-                std::to_string(indices / 4) + " tets exceed limits.max_tets = " +
-                    std::to_string(limits.max_tets));
+                std::to_string(indices / 4) +
+                    " tets exceed limits.max_tets = " + std::to_string(limits.max_tets));
   if (t.node_ids.size() > static_cast<std::size_t>(limits.max_nodes))
     return fail(ErrorCode::kOversized, t.scene, t.object,
                 std::to_string(t.node_ids.size()) + " node ids exceed limits.max_nodes");
@@ -103,8 +104,7 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object, "topology version must be > 0");
   if (coords % 3 != 0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
-                "rest_positions has " + std::to_string(coords) +
-                    " values, not a multiple of 3");
+                "rest_positions has " + std::to_string(coords) + " values, not a multiple of 3");
   if (indices % 4 != 0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "tets has " + std::to_string(indices) + " indices, not a multiple of 4");
@@ -126,13 +126,13 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
     for (int a = 0; a < 4; ++a) {
       if (tet[a] < 0 || tet[a] >= n32)
         return fail(ErrorCode::kInvalidMesh, t.scene, t.object,
-                    "tet " + std::to_string(k / 4) + " has node index " +
-                        std::to_string(tet[a]) + " outside [0, " + std::to_string(n) + ")");
+                    "tet " + std::to_string(k / 4) + " has node index " + std::to_string(tet[a]) +
+                        " outside [0, " + std::to_string(n) + ")");
       for (int b = 0; b < a; ++b)
         if (tet[a] == tet[b])
-          return fail(ErrorCode::kInvalidMesh, t.scene, t.object,
-                      "tet " + std::to_string(k / 4) + " uses node " + std::to_string(tet[a]) +
-                          " twice");
+          return fail(
+              ErrorCode::kInvalidMesh, t.scene, t.object,
+              "tet " + std::to_string(k / 4) + " uses node " + std::to_string(tet[a]) + " twice");
     }
   }
   const WireParams& p = t.params;

@@ -33,9 +33,9 @@ struct TopologyView {
   std::string_view scene;
   std::string_view object;
   std::uint32_t version = 0;
-  std::span<const std::int64_t> node_ids;     ///< n, or empty
-  std::span<const double> rest_positions;     ///< 3n, metres, x0 y0 z0 x1 ...
-  std::span<const std::int32_t> tets;         ///< 4m, 0-based node indices
+  std::span<const std::int64_t> node_ids;  ///< n, or empty
+  std::span<const double> rest_positions;  ///< 3n, metres, x0 y0 z0 x1 ...
+  std::span<const std::int32_t> tets;      ///< 4m, 0-based node indices
   WireParams params;
 };
 

@@ -22,8 +22,7 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
 double percentile(std::vector<double>& values, double q) {
   if (values.empty()) return 0.0;
   const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5);
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k),
-                   values.end());
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return values[k];
 }
 
@@ -74,14 +73,13 @@ void SceneRunner::run_topology(TopologyJob& job) {
     msg.message = "registered topology version " + std::to_string(job.version) + ": " +
                   std::to_string(nodes) + " nodes, " + std::to_string(tets) + " tets, built in " +
                   std::to_string(build_ms) + " ms (" +
-                  std::to_string(ms_between(job.received, Clock::now())) +
-                  " ms since received)";
+                  std::to_string(ms_between(job.received, Clock::now())) + " ms since received)";
     spdlog::info("{}/{}: {}", scene_, job.object, msg.message);
   } else {
     msg.kind = StatusKind::kError;
     msg.code = status_code(st.error().code);
-    msg.message = "topology version " + std::to_string(job.version) +
-                  " rejected: " + st.error().message;
+    msg.message =
+        "topology version " + std::to_string(job.version) + " rejected: " + st.error().message;
     spdlog::warn("{}/{}: {}", scene_, job.object, msg.message);
   }
   outbox_.publish_status(msg);
@@ -174,10 +172,9 @@ void SceneRunner::run_frame(FrameJob& job) {
         "ms, compute {:.3f} ms (broad {:.3f}, narrow {:.3f}, depth {:.3f}, response {:.3f}), "
         "publish {:.3f} ms; {} candidate / {} overlapping pairs, {} contacts",
         scene_, job.frame, job.complete ? "" : " (partial)", stats.objects, stats.states,
-        stats.rejected, stats.assembly_ms, stats.queue_ms, stats.core.total_ms,
-        stats.core.broad_ms, stats.core.narrow_ms, stats.core.depth_ms, stats.core.response_ms,
-        stats.publish_ms, stats.core.candidate_pairs, stats.core.overlapping_pairs,
-        stats.core.contacts);
+        stats.rejected, stats.assembly_ms, stats.queue_ms, stats.core.total_ms, stats.core.broad_ms,
+        stats.core.narrow_ms, stats.core.depth_ms, stats.core.response_ms, stats.publish_ms,
+        stats.core.candidate_pairs, stats.core.overlapping_pairs, stats.core.contacts);
   report_timing(stats.core.total_ms, latency);
 }
 
@@ -189,9 +186,9 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
   std::sort(forces.begin(), forces.end(),
             [](const ObjectForces* a, const ObjectForces* b) { return a->object < b->object; });
   const auto find_forces = [&](const std::string& name) -> const ObjectForces* {
-    const auto it = std::lower_bound(
-        forces.begin(), forces.end(), name,
-        [](const ObjectForces* f, const std::string& n) { return f->object < n; });
+    const auto it =
+        std::lower_bound(forces.begin(), forces.end(), name,
+                         [](const ObjectForces* f, const std::string& n) { return f->object < n; });
     return it != forces.end() && (*it)->object == name ? *it : nullptr;
   };
   const auto error_of = [&](const std::string& name) -> std::int32_t {

@@ -125,9 +125,9 @@ void Scheduler::post(const std::string& scene, SceneJob job) {
       std::size_t frames = 0;
       for (const auto& j : slot->jobs) frames += std::holds_alternative<FrameJob>(j) ? 1 : 0;
       if (frames >= impl_->max_queued_frames) {
-        const auto oldest = std::find_if(slot->jobs.begin(), slot->jobs.end(), [](const SceneJob& j) {
-          return std::holds_alternative<FrameJob>(j);
-        });
+        const auto oldest =
+            std::find_if(slot->jobs.begin(), slot->jobs.end(),
+                         [](const SceneJob& j) { return std::holds_alternative<FrameJob>(j); });
         spdlog::debug("{}: frame {} dropped (superseded while the scene was busy)", scene,
                       std::get<FrameJob>(*oldest).frame);
         slot->jobs.erase(oldest);
@@ -175,6 +175,8 @@ bool Scheduler::shutdown(std::chrono::milliseconds timeout) {
   return idle;
 }
 
-std::uint64_t Scheduler::dropped_frames() const { return impl_->dropped_total.load(); }
+std::uint64_t Scheduler::dropped_frames() const {
+  return impl_->dropped_total.load();
+}
 
 }  // namespace tc::daemon

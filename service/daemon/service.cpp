@@ -58,10 +58,12 @@ struct Service::Impl {
     const auto qos = protocol::topic_qos(topic);
     const dds_entity_t t = dds_create_topic(participant, protocol::topic_descriptor(topic),
                                             protocol::topic_name(topic), qos.get(), nullptr);
-    if (t < 0) return dds_failure(std::string("dds_create_topic(") + protocol::topic_name(topic) + ")", t);
+    if (t < 0)
+      return dds_failure(std::string("dds_create_topic(") + protocol::topic_name(topic) + ")", t);
     out = dds_create_reader(subscriber, t, qos.get(), nullptr);
     if (out < 0)
-      return dds_failure(std::string("dds_create_reader(") + protocol::topic_name(topic) + ")", out);
+      return dds_failure(std::string("dds_create_reader(") + protocol::topic_name(topic) + ")",
+                         out);
     return {};
   }
 
@@ -172,8 +174,8 @@ Status Service::start() {
   if (Status st = s.outbox.create(s.participant); !st) return st;
   s.outbox.set_state(ServiceState::kStarting, "starting");
 
-  s.scheduler = std::make_unique<Scheduler>(
-      c.threads, c.max_queued_frames, [&s](const std::string& scene) {
+  s.scheduler =
+      std::make_unique<Scheduler>(c.threads, c.max_queued_frames, [&s](const std::string& scene) {
         return std::make_unique<SceneRunner>(
             scene, s.config.pipeline, s.outbox,
             [&s](TopologyResult r) { s.post_result(std::move(r)); },
@@ -212,8 +214,8 @@ Status Service::run() {
                s.outbox.service_id(), c.domain, c.partition,
                c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")));
 
-  const auto heartbeat_period = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(c.status_period_s));
+  const auto heartbeat_period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(c.status_period_s));
   auto next_heartbeat = Clock::now() + heartbeat_period;
   Status result;
   std::array<dds_attach_t, 4> triggered{};
@@ -224,8 +226,7 @@ Status Service::run() {
     const dds_duration_t timeout =
         until <= now ? 0
                      : std::chrono::duration_cast<std::chrono::nanoseconds>(until - now).count();
-    const dds_return_t n =
-        dds_waitset_wait(s.waitset, triggered.data(), triggered.size(), timeout);
+    const dds_return_t n = dds_waitset_wait(s.waitset, triggered.data(), triggered.size(), timeout);
     if (n < 0) {
       result = dds_failure("dds_waitset_wait", n);
       spdlog::error("{}", result.error().message);
