@@ -1,0 +1,380 @@
+// The real tetcollided over DDS: readiness, streaming, bad input, cuts, removal, scenes,
+// signals. Each test runs its own daemon on a private domain.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <csignal>
+#include <map>
+#include <thread>
+
+#include "daemon_process.hpp"
+#include "scenes.hpp"
+#include "tetcollide/client.hpp"
+
+namespace tc::itest {
+namespace {
+
+using namespace std::chrono_literals;
+using client::Client;
+using client::StatusCode;
+
+const char* kConfig = R"(version: 1
+dds:
+  status_period_s: 0.2
+frames:
+  assembly_wait_ms: 50
+  unknown_object_grace_ms: 100
+limits:
+  max_nodes: 5000
+log:
+  level: info
+  timing_summary_period_s: 0
+)";
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = make_temp_dir("itest-service");
+    daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, kConfig);
+    ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  }
+  void TearDown() override {
+    if (HasFailure() && daemon_) std::cerr << "---- daemon log ----\n" << daemon_->log_text();
+    daemon_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+  std::unique_ptr<Client> connect(const std::string& scene, std::chrono::milliseconds resend = 0ms) {
+    client::Options o;
+    o.domain = domain_;
+    o.scene = scene;
+    o.resend_after = resend;
+    auto c = Client::connect(o);
+    EXPECT_TRUE(c->wait_for_service(10s)) << "no READY service on domain " << domain_;
+    return c;
+  }
+  /// Waits for a status event matching `pred` (events are consumed).
+  template <typename Pred>
+  std::optional<client::StatusEvent> wait_status(Client& c, Pred pred,
+                                                 std::chrono::milliseconds timeout = 5s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      for (auto& e : c.take_status_events())
+        if (pred(e)) return e;
+      c.poll(20ms);
+    }
+    return std::nullopt;
+  }
+
+  std::uint32_t domain_ = private_domain();
+  std::filesystem::path dir_;
+  std::unique_ptr<DaemonProcess> daemon_;
+};
+
+void expect_sane(const client::ObjectForces& f, std::size_t nodes) {
+  EXPECT_EQ(f.status, 0) << f.object << " frame " << f.frame;
+  ASSERT_EQ(f.forces.size(), 3 * f.nodes.size());
+  for (std::size_t k = 0; k < f.nodes.size(); ++k) {
+    EXPECT_GE(f.nodes[k], 0);
+    EXPECT_LT(static_cast<std::size_t>(f.nodes[k]), nodes);
+    if (k > 0) EXPECT_LT(f.nodes[k - 1], f.nodes[k]);
+  }
+  for (const double v : f.forces) EXPECT_TRUE(std::isfinite(v));
+}
+
+TEST_F(ServiceTest, AnnouncesReadyAndStopsCleanlyOnSigterm) {
+  auto c = connect("ready");
+  bool ready_seen = false;
+  for (const auto& e : c->take_status_events())
+    ready_seen = ready_seen || (e.state == client::StatusEvent::State::kReady);
+  EXPECT_TRUE(ready_seen);
+  const int status = daemon_->stop(SIGTERM);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const std::string log = daemon_->log_text();
+  EXPECT_NE(log.find("received SIGTERM"), std::string::npos);
+  EXPECT_NE(log.find("tetcollided stopped"), std::string::npos);
+}
+
+TEST_F(ServiceTest, StopsCleanlyOnSigint) {
+  const int status = daemon_->stop(SIGINT);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+/// Two overlapping boxes that also reach below z = 0, moving a little every frame.
+struct TwoBoxes {
+  client::Mesh a = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  client::Mesh b = box_mesh(3, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
+  [[nodiscard]] std::vector<double> pos_a(std::int64_t f) const {
+    return translated(a, {0.0, 0.0, 0.001 * static_cast<double>(f % 50)});
+  }
+  [[nodiscard]] std::vector<double> pos_b(std::int64_t f) const {
+    return translated(b, {-0.002 * static_cast<double>(f % 50), 0.0, 0.0});
+  }
+};
+
+TEST_F(ServiceTest, EveryStreamedFrameIsAnswered) {
+  auto c = connect("stream");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  std::size_t with_forces = 0;
+  for (std::int64_t f = 0; f < 200; ++f) {
+    const auto pa = s.pos_a(f);
+    const auto pb = s.pos_b(f);
+    c->publish_states(f, {{"a", pa}, {"b", pb}});
+    const auto forces = c->wait_forces(f, 5s);
+    ASSERT_TRUE(forces) << "frame " << f << " not answered";
+    ASSERT_EQ(forces->frame, f);
+    ASSERT_EQ(forces->objects.size(), 2u);
+    expect_sane(*forces->find("a"), s.a.rest_positions.size() / 3);
+    expect_sane(*forces->find("b"), s.b.rest_positions.size() / 3);
+    EXPECT_EQ(forces->find("a")->topology_version, 1u);
+    with_forces += forces->find("a")->nodes.empty() ? 0 : 1;
+  }
+  EXPECT_GT(with_forces, 0u) << "overlapping boxes never produced a force";
+}
+
+TEST_F(ServiceTest, SameStatesGiveBitIdenticalForcesInAnotherScene) {
+  TwoBoxes s;
+  std::vector<std::vector<client::ObjectForces>> runs(2);
+  for (int run = 0; run < 2; ++run) {
+    auto c = connect("determinism-" + std::to_string(run));
+    c->register_object("a", s.a, {});
+    c->register_object("b", s.b, {});
+    ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+    ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+    for (std::int64_t f = 0; f < 30; ++f) {
+      const auto pa = s.pos_a(f);
+      const auto pb = s.pos_b(f);
+      c->publish_states(f, {{"a", pa}, {"b", pb}});
+      const auto forces = c->wait_forces(f, 5s);
+      ASSERT_TRUE(forces && forces->frame == f);
+      for (const auto& o : forces->objects) runs[run].push_back(o);
+    }
+  }
+  ASSERT_EQ(runs[0].size(), runs[1].size());
+  for (std::size_t i = 0; i < runs[0].size(); ++i) {
+    EXPECT_EQ(runs[0][i].nodes, runs[1][i].nodes);
+    ASSERT_EQ(runs[0][i].forces.size(), runs[1][i].forces.size());
+    EXPECT_EQ(0, std::memcmp(runs[0][i].forces.data(), runs[1][i].forces.data(),
+                             runs[0][i].forces.size() * sizeof(double)));
+  }
+}
+
+TEST_F(ServiceTest, ScenesRunInParallelAndIndependently) {
+  TwoBoxes s;
+  std::vector<std::thread> sims;
+  std::vector<int> answered(3, 0);
+  for (int k = 0; k < 3; ++k)
+    sims.emplace_back([&, k] {
+      auto c = connect("parallel-" + std::to_string(k));
+      c->register_object("a", s.a, {});
+      c->register_object("b", s.b, {});
+      if (!c->wait_registered("a", 10s).ok || !c->wait_registered("b", 10s).ok) return;
+      for (std::int64_t f = 0; f < 50; ++f) {
+        const auto pa = s.pos_a(f + k);
+        const auto pb = s.pos_b(f);
+        c->publish_states(f, {{"a", pa}, {"b", pb}});
+        const auto forces = c->wait_forces(f, 5s);
+        if (forces && forces->frame == f && forces->ok()) ++answered[static_cast<std::size_t>(k)];
+      }
+    });
+  for (auto& t : sims) t.join();
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(answered[static_cast<std::size_t>(k)], 50) << "scene " << k;
+}
+
+TEST_F(ServiceTest, BadInputIsRejectedAndGoodObjectsKeepTheirForces) {
+  auto c = connect("bad");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+
+  // Topologies: an index out of range (sample validation) and an inverted tet (found
+  // by the pipeline when it builds the object).
+  client::Mesh out_of_range = box_mesh(1, {3, 3, 3}, {4, 4, 4});
+  out_of_range.tets[5] = 1000;
+  c->register_object("bad_index", out_of_range, {});
+  const auto r1 = c->wait_registered("bad_index", 10s);
+  ASSERT_TRUE(r1.done);
+  EXPECT_FALSE(r1.ok);
+  EXPECT_EQ(r1.code, static_cast<int>(StatusCode::kInvalidMesh)) << r1.message;
+  client::Mesh inverted = box_mesh(1, {3, 3, 3}, {4, 4, 4});
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  c->register_object("inverted", inverted, {});
+  const auto r2 = c->wait_registered("inverted", 10s);
+  ASSERT_TRUE(r2.done);
+  EXPECT_FALSE(r2.ok);
+  EXPECT_EQ(r2.code, static_cast<int>(StatusCode::kInvalidMesh)) << r2.message;
+  client::ObjectParams bad_params;
+  bad_params.stiffness = -1.0;
+  c->register_object("bad_params", box_mesh(1, {3, 3, 3}, {4, 4, 4}), bad_params);
+  const auto r3 = c->wait_registered("bad_params", 10s);
+  ASSERT_TRUE(r3.done);
+  EXPECT_EQ(r3.code, static_cast<int>(StatusCode::kInvalidArgument)) << r3.message;
+  // Over limits.max_nodes (5000): 18^3 cells have 6859 nodes.
+  c->register_object("huge", box_mesh(18, {5, 5, 5}, {6, 6, 6}), {});
+  const auto r4 = c->wait_registered("huge", 10s);
+  ASSERT_TRUE(r4.done);
+  EXPECT_EQ(r4.code, static_cast<int>(StatusCode::kOversized)) << r4.message;
+
+  struct BadState {
+    const char* what;
+    std::vector<double> positions;
+    std::uint32_t version;
+    StatusCode code;
+  };
+  auto nan_positions = s.pos_b(0);
+  nan_positions[7] = std::nan("");
+  auto inf_positions = s.pos_b(0);
+  inf_positions[0] = INFINITY;
+  auto short_positions = s.pos_b(0);
+  short_positions.resize(short_positions.size() - 3);
+  const std::vector<BadState> cases = {
+      {"wrong length", short_positions, 0, StatusCode::kInvalidArgument},
+      {"not a multiple of 3", std::vector<double>(10, 0.0), 0, StatusCode::kInvalidArgument},
+      {"NaN", nan_positions, 0, StatusCode::kInvalidMesh},
+      {"infinity", inf_positions, 0, StatusCode::kInvalidMesh},
+      {"stale version", s.pos_b(0), 77, StatusCode::kStaleVersion},
+      {"oversized", std::vector<double>(3 * 6000, 0.0), 0, StatusCode::kOversized},
+  };
+  std::int64_t frame = 0;
+  for (const auto& bad : cases) {
+    SCOPED_TRACE(bad.what);
+    ++frame;
+    const auto pa = s.pos_a(frame);
+    client::ObjectState sa{"a", pa};
+    client::ObjectState sb{"b", bad.positions};
+    sb.topology_version = bad.version;
+    const std::vector<client::ObjectState> states{sa, sb};
+    c->publish_states(frame, states);
+    const auto forces = c->wait_forces(frame, 5s);
+    ASSERT_TRUE(forces);
+    ASSERT_EQ(forces->frame, frame);
+    ASSERT_NE(forces->find("a"), nullptr);
+    expect_sane(*forces->find("a"), s.a.rest_positions.size() / 3);
+    ASSERT_NE(forces->find("b"), nullptr);
+    EXPECT_EQ(forces->find("b")->status, static_cast<int>(bad.code));
+    EXPECT_TRUE(forces->find("b")->nodes.empty());
+    const auto e = wait_status(*c, [&](const client::StatusEvent& ev) {
+      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "b" &&
+             ev.frame == frame;
+    });
+    ASSERT_TRUE(e) << "no status error for frame " << frame;
+    EXPECT_EQ(e->code, static_cast<int>(bad.code)) << e->message;
+    EXPECT_EQ(e->scene, "bad");
+  }
+  // A state for an object nobody registered: status error, and the scene goes on.
+  {
+    ++frame;
+    const auto pa = s.pos_a(frame);
+    const auto pb = s.pos_b(frame);
+    const auto ghost = s.pos_b(frame);
+    c->publish_states(frame, {{"a", pa}, {"b", pb}, {"ghost", ghost}});
+    const auto forces = c->wait_forces(frame, 5s);
+    ASSERT_TRUE(forces && forces->frame == frame);
+    EXPECT_TRUE(forces->ok());
+    const auto e = wait_status(*c, [&](const client::StatusEvent& ev) {
+      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "ghost";
+    });
+    ASSERT_TRUE(e);
+    EXPECT_EQ(e->code, static_cast<int>(StatusCode::kUnknownObject));
+  }
+  // The daemon is still alive and serving.
+  ++frame;
+  const auto pa = s.pos_a(frame);
+  const auto pb = s.pos_b(frame);
+  c->publish_states(frame, {{"a", pa}, {"b", pb}});
+  const auto forces = c->wait_forces(frame, 5s);
+  ASSERT_TRUE(forces && forces->frame == frame && forces->ok());
+  EXPECT_TRUE(daemon_->running());
+  EXPECT_NE(daemon_->log_text().find("rejected"), std::string::npos);
+}
+
+TEST_F(ServiceTest, ACutReplacesTheTopologyBetweenFrames) {
+  auto c = connect("cut");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  const auto pa0 = s.pos_a(0);
+  const auto pb0 = s.pos_b(0);
+  c->publish_states(0, {{"a", pa0}, {"b", pb0}});
+  ASSERT_TRUE(c->wait_forces(0, 5s));
+  // Cut b: a coarser mesh with a different node count, version 2.
+  const client::Mesh b2 = box_mesh(2, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
+  EXPECT_EQ(c->register_object("b", b2, {}), 2u);
+  // No waiting for the registration: a state that overtakes its topology is held.
+  const auto pa1 = s.pos_a(1);
+  const auto pb1 = translated(b2, {0, 0, 0});
+  c->publish_states(1, {{"a", pa1}, {"b", pb1}});
+  const auto forces = c->wait_forces(1, 5s);
+  ASSERT_TRUE(forces && forces->frame == 1);
+  ASSERT_TRUE(forces->ok());
+  EXPECT_EQ(forces->find("b")->topology_version, 2u);
+  expect_sane(*forces->find("b"), b2.rest_positions.size() / 3);
+  // The old version is stale now.
+  client::ObjectState old{"b", pb0};
+  old.topology_version = 1;
+  const std::vector<client::ObjectState> states{{"a", pa1}, old};
+  c->publish_states(2, states);
+  const auto f2 = c->wait_forces(2, 5s);
+  ASSERT_TRUE(f2 && f2->frame == 2);
+  EXPECT_EQ(f2->find("b")->status, static_cast<int>(StatusCode::kStaleVersion));
+}
+
+TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
+  auto c = connect("remove");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  c->remove_object("b");
+  const auto e = wait_status(*c, [](const client::StatusEvent& ev) {
+    return ev.kind == client::StatusEvent::Kind::kRemoved && ev.object == "b";
+  });
+  ASSERT_TRUE(e);
+  // Frames no longer wait for b.
+  const auto pa = s.pos_a(0);
+  c->publish_states(0, {{"a", pa}});
+  const auto forces = c->wait_forces(0, 5s);
+  ASSERT_TRUE(forces && forces->frame == 0);
+  EXPECT_EQ(forces->objects.size(), 1u);
+  // A client that goes away takes its objects with it.
+  {
+    auto other = connect("remove");
+    other->register_object("c", box_mesh(1, {4, 4, 4}, {5, 5, 5}), {});
+    ASSERT_TRUE(other->wait_registered("c", 10s).ok);
+  }
+  EXPECT_TRUE(daemon_->wait_for_log("remove/c: removed", 10s));
+}
+
+TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
+  auto c = connect("static");
+  TwoBoxes s;
+  client::ObjectParams floor;
+  floor.is_static = true;
+  c->register_object("floor", s.b, floor);
+  c->register_object("a", s.a, {});
+  ASSERT_TRUE(c->wait_registered("floor", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  for (std::int64_t f = 0; f < 20; ++f) {
+    const auto pa = s.pos_a(f);
+    c->publish_states(f, {{"a", pa}});
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto forces = c->wait_forces(f, 5s);
+    ASSERT_TRUE(forces && forces->frame == f);
+    // Answered without the 50 ms assembly wait.
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, 45ms) << "frame " << f;
+  }
+}
+
+}  // namespace
+}  // namespace tc::itest
