@@ -18,8 +18,8 @@ namespace tc::client {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr std::size_t kKeptFrames = 256;      // answered frames remembered
-constexpr std::size_t kKeptEvents = 4096;     // status events kept until taken
+constexpr std::size_t kKeptFrames = 256;   // answered frames remembered
+constexpr std::size_t kKeptEvents = 4096;  // status events kept until taken
 constexpr std::uint32_t kTakeBatch = 64;
 
 [[noreturn]] void throw_dds(const std::string& call, dds_return_t rc) {
@@ -75,8 +75,8 @@ struct Client::Impl {
   dds_entity_t waitset = 0;
   dds_entity_t wakeup = 0;
 
-  std::mutex pump_mutex;   // one thread reads DDS at a time
-  std::mutex mutex;        // everything below
+  std::mutex pump_mutex;  // one thread reads DDS at a time
+  std::mutex mutex;       // everything below
   std::condition_variable changed;
 
   std::map<std::string, std::uint32_t> versions;                        // own objects
@@ -84,7 +84,7 @@ struct Client::Impl {
   std::map<std::int64_t, std::map<std::string, ObjectForces>> answers;  // frame -> answers
   std::set<std::int64_t> delivered;                                     // callback done
   std::map<std::pair<std::string, std::uint32_t>, Registration> registrations;
-  std::map<std::string, StatusEvent::State> services;                   // alive services
+  std::map<std::string, StatusEvent::State> services;  // alive services
   std::vector<StatusEvent> events;
 
   // The last published frame, kept for re-sending (only when resend_after > 0).
@@ -316,7 +316,9 @@ struct Client::Impl {
 Client::Client() : impl_(std::make_unique<Impl>()) {}
 Client::~Client() = default;
 
-const Options& Client::options() const { return impl_->options; }
+const Options& Client::options() const {
+  return impl_->options;
+}
 
 std::unique_ptr<Client> Client::connect(const Options& options) {
   std::unique_ptr<Client> client(new Client());
@@ -372,9 +374,8 @@ std::unique_ptr<Client> Client::connect(const Options& options) {
 bool Client::wait_for_service(std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
   return m.wait_until(Clock::now() + timeout, [&] {
-    return std::any_of(m.services.begin(), m.services.end(), [](const auto& s) {
-      return s.second == StatusEvent::State::kReady;
-    });
+    return std::any_of(m.services.begin(), m.services.end(),
+                       [](const auto& s) { return s.second == StatusEvent::State::kReady; });
   });
 }
 
@@ -412,8 +413,7 @@ std::uint32_t Client::register_object(const std::string& object, const Mesh& mes
   return v;
 }
 
-Registration Client::wait_registered(const std::string& object,
-                                     std::chrono::milliseconds timeout) {
+Registration Client::wait_registered(const std::string& object, std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
   const std::uint32_t v = version(object);
   Registration out;
@@ -453,8 +453,8 @@ void Client::publish_states(std::int64_t frame, std::span<const ObjectState> sta
     for (std::size_t i = 0; i < states.size(); ++i) {
       const auto it = m.versions.find(states[i].object);
       versions[i] = states[i].topology_version != 0 ? states[i].topology_version
-                    : it == m.versions.end()         ? 0
-                                                     : it->second;
+                    : it == m.versions.end()        ? 0
+                                                    : it->second;
       if (it != m.versions.end()) names.push_back(states[i].object);
     }
     std::sort(names.begin(), names.end());
@@ -476,8 +476,7 @@ void Client::publish_states(std::int64_t frame, std::span<const ObjectState> sta
     m.trim();
   }
   for (std::size_t i = 0; i < states.size(); ++i)
-    m.write_state(frame, states[i].object, versions[i], states[i].positions,
-                  states[i].velocities);
+    m.write_state(frame, states[i].object, versions[i], states[i].positions, states[i].velocities);
 }
 
 std::optional<FrameForces> Client::wait_forces(std::int64_t frame,
@@ -501,7 +500,8 @@ std::optional<FrameForces> Client::wait_forces(std::int64_t frame,
       std::lock_guard lock(m.mutex);
       if (m.kept_frame == frame) again = m.kept;
     }
-    for (const auto& k : again) m.write_state(frame, k.object, k.version, k.positions, k.velocities);
+    for (const auto& k : again)
+      m.write_state(frame, k.object, k.version, k.positions, k.velocities);
   }
   std::lock_guard lock(m.mutex);
   return m.collect(*answered);

@@ -39,7 +39,7 @@ std::optional<Clock::time_point> FrameAssembler::deadline() const {
 }
 
 std::optional<AssembledFrame> FrameAssembler::poll(const std::vector<std::string>& expected,
-                                                   Clock::time_point now) {
+                                                   Clock::time_point now, bool may_time_out) {
   if (pending_.empty()) return std::nullopt;
   std::int64_t target = pending_.front().frame;
   Clock::time_point first = pending_.front().received;
@@ -55,7 +55,7 @@ std::optional<AssembledFrame> FrameAssembler::poll(const std::vector<std::string
       break;
     }
   }
-  if (!complete && now < first + wait_) return std::nullopt;
+  if (!complete && (!may_time_out || now < first + wait_)) return std::nullopt;
   AssembledFrame out;
   out.frame = target;
   out.states = std::move(pending_);

@@ -51,10 +51,10 @@ class FrameAssembler {
   /// Drops an object's pending state (the object was removed).
   void remove(std::string_view object);
 
-  /// The pending frame if it is complete for `expected` (sorted object names) or has
-  /// waited long enough at `now`; the pending set is then empty again.
+  /// The pending frame if it is complete for `expected` (sorted object names) or, when
+  /// `may_time_out`, has waited long enough at `now`; the pending set is then empty.
   std::optional<AssembledFrame> poll(const std::vector<std::string>& expected,
-                                     Clock::time_point now);
+                                     Clock::time_point now, bool may_time_out = true);
 
   /// When poll() will dispatch the pending frame at the latest; nullopt when empty.
   [[nodiscard]] std::optional<Clock::time_point> deadline() const;

@@ -12,7 +12,7 @@ namespace {
 
 /// Held states across all scenes; one more is rejected at once (unknown_object).
 constexpr std::size_t kMaxHeld = 1024;
-/// One error report per (scene, object, code) per window; the rest are counted.
+/// One log line per (scene, object, code) per window; the rest are counted.
 constexpr auto kReportWindow = std::chrono::seconds(1);
 constexpr std::size_t kMaxThrottleEntries = 4096;
 
@@ -45,18 +45,8 @@ const SceneRegistry* Router::registry(std::string_view scene) const {
 void Router::report(std::int32_t code, std::string_view scene, std::string_view object,
                     std::uint32_t version, std::int64_t frame, const std::string& message,
                     Clock::time_point now) {
-  if (throttle_.size() > kMaxThrottleEntries) throttle_.clear();
-  Throttle& t = throttle_[{std::string(scene), std::string(object), code}];
-  if (t.last != Clock::time_point{} && now - t.last < kReportWindow) {
-    ++t.suppressed;
-    return;
-  }
-  std::string text = message;
-  if (t.suppressed > 0) text += " (" + std::to_string(t.suppressed) + " similar errors suppressed)";
-  t.last = now;
-  t.suppressed = 0;
-  spdlog::warn("{}/{}: rejected ({}): {}", printable(scene), printable(object),
-               protocol::status_name(code), text);
+  // Every rejection goes to the status topic; the log gets one line per (scene, object,
+  // code) per window so a client sending bad frames at 1 kHz cannot flood it.
   StatusMessage msg;
   msg.kind = StatusKind::kError;
   msg.code = code;
@@ -64,8 +54,22 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
   msg.object = printable(object);
   msg.topology_version = version;
   msg.frame = frame;
-  msg.message = std::move(text);
+  msg.message = message;
   outbox_.publish_status(msg);
+
+  if (throttle_.size() > kMaxThrottleEntries) throttle_.clear();
+  Throttle& t = throttle_[{msg.scene, msg.object, code}];
+  if (t.last != Clock::time_point{} && now - t.last < kReportWindow) {
+    ++t.suppressed;
+    return;
+  }
+  std::string suppressed;
+  if (t.suppressed > 0)
+    suppressed = " (" + std::to_string(t.suppressed) + " similar errors not logged)";
+  t.last = now;
+  t.suppressed = 0;
+  spdlog::warn("{}/{}: rejected ({}): {}{}", msg.scene, msg.object, protocol::status_name(code),
+               message, suppressed);
 }
 
 void Router::answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
@@ -230,8 +234,19 @@ void Router::add_rejected(Scene& scene, const StateView& s, std::int32_t code,
   scene.assembler.add(std::move(p));
 }
 
+bool Router::holds_state_of_registered(const std::string& scene_name, const Scene& scene) const {
+  for (auto it = held_.lower_bound(HeldKey{scene_name, std::string()});
+       it != held_.end() && it->first.first == scene_name; ++it)
+    if (scene.registry.current(it->first.second) != nullptr) return true;
+  return false;
+}
+
 void Router::try_dispatch(const std::string& scene_name, Scene& scene, Clock::time_point now) {
-  auto frame = scene.assembler.poll(scene.registry.expected(), now);
+  // A registered object whose state waits for its new topology version (a cut in
+  // flight) is resolved first, within the grace: admitted or rejected, it then takes
+  // part in the frame instead of being answered as if it had sent nothing.
+  const bool may_time_out = !holds_state_of_registered(scene_name, scene);
+  auto frame = scene.assembler.poll(scene.registry.expected(), now, may_time_out);
   if (!frame) return;
   FrameJob job;
   job.frame = frame->frame;

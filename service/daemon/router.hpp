@@ -75,6 +75,8 @@ class Router {
   void release_held(const std::string& scene_name, Scene& scene, const std::string& object,
                     Clock::time_point now);
   void hold(const StateView& state, Clock::time_point now);
+  [[nodiscard]] bool holds_state_of_registered(const std::string& scene_name,
+                                               const Scene& scene) const;
   void answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
                   std::uint32_t version, std::int32_t code);
   void report(std::int32_t code, std::string_view scene, std::string_view object,
@@ -90,7 +92,7 @@ class Router {
   std::map<std::string, Scene, std::less<>> scenes_;
   std::map<HeldKey, Held> held_;
 
-  // Log and status rate limit per (scene, object, code): one report per window.
+  // Log rate limit per (scene, object, code): one line per window.
   struct Throttle {
     Clock::time_point last{};
     std::uint64_t suppressed = 0;

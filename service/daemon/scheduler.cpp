@@ -1,6 +1,8 @@
 #include "scheduler.hpp"
 
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <tbb/task_arena.h>
 
 #include <atomic>
@@ -22,10 +24,17 @@ struct Scheduler::Impl {
   };
 
   Impl(int threads, int max_queued, RunnerFactory f)
-      : arena(threads > 0 ? threads : tbb::task_arena::automatic, 0),
+      : concurrency(threads > 0 ? threads : tbb::info::default_concurrency()),
+        // No application thread joins the arena: all `concurrency` threads are TBB
+        // workers, so the global worker limit must allow that many.
+        workers(tbb::global_control::max_allowed_parallelism,
+                static_cast<std::size_t>(concurrency) + 1),
+        arena(concurrency, 0),
         max_queued_frames(static_cast<std::size_t>(max_queued)),
         factory(std::move(f)) {}
 
+  int concurrency;
+  tbb::global_control workers;
   tbb::task_arena arena;
   std::size_t max_queued_frames;
   RunnerFactory factory;

@@ -70,7 +70,8 @@ std::filesystem::path make_temp_dir(const std::string& prefix) {
   std::mt19937_64 rng(static_cast<std::uint64_t>(getpid()) * 1000003u +
                       static_cast<std::uint64_t>(Clock::now().time_since_epoch().count()));
   for (int attempt = 0; attempt < 100; ++attempt) {
-    auto dir = base / (prefix + "-" + std::to_string(getpid()) + "-" + std::to_string(rng() % 1000000));
+    auto dir =
+        base / (prefix + "-" + std::to_string(getpid()) + "-" + std::to_string(rng() % 1000000));
     if (std::filesystem::create_directory(dir)) return dir;
   }
   ADD_FAILURE() << "cannot create a temporary directory under " << base;
@@ -88,7 +89,9 @@ std::string program_from_env(const char* variable) {
 
 DaemonProcess::DaemonProcess(std::filesystem::path dir, std::uint32_t domain,
                              std::string config_yaml)
-    : dir_(std::move(dir)), config_(dir_ / "tetcollided.yaml"), log_(dir_ / "daemon.log"),
+    : dir_(std::move(dir)),
+      config_(dir_ / "tetcollided.yaml"),
+      log_(dir_ / "daemon.log"),
       domain_(domain) {
   std::ofstream(config_) << config_yaml;
 }
@@ -142,10 +145,11 @@ void DaemonProcess::kill_hard() {
   pid_ = -1;
 }
 
-std::string DaemonProcess::log_text() const { return read_file(log_); }
+std::string DaemonProcess::log_text() const {
+  return read_file(log_);
+}
 
-bool DaemonProcess::wait_for_log(const std::string& text,
-                                 std::chrono::milliseconds timeout) const {
+bool DaemonProcess::wait_for_log(const std::string& text, std::chrono::milliseconds timeout) const {
   const auto deadline = Clock::now() + timeout;
   while (Clock::now() < deadline) {
     if (log_text().find(text) != std::string::npos) return true;

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "tetcollide/client.hpp"
 #include "test_meshes.hpp"
+#include "tetcollide/client.hpp"
 
 namespace tc::itest {
 

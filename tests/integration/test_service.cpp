@@ -44,7 +44,8 @@ class ServiceTest : public ::testing::Test {
     daemon_.reset();
     std::filesystem::remove_all(dir_);
   }
-  std::unique_ptr<Client> connect(const std::string& scene, std::chrono::milliseconds resend = 0ms) {
+  std::unique_ptr<Client> connect(const std::string& scene,
+                                  std::chrono::milliseconds resend = 0ms) {
     client::Options o;
     o.domain = domain_;
     o.scene = scene;
@@ -77,7 +78,9 @@ void expect_sane(const client::ObjectForces& f, std::size_t nodes) {
   for (std::size_t k = 0; k < f.nodes.size(); ++k) {
     EXPECT_GE(f.nodes[k], 0);
     EXPECT_LT(static_cast<std::size_t>(f.nodes[k]), nodes);
-    if (k > 0) EXPECT_LT(f.nodes[k - 1], f.nodes[k]);
+    if (k > 0) {
+      EXPECT_LT(f.nodes[k - 1], f.nodes[k]);
+    }
   }
   for (const double v : f.forces) EXPECT_TRUE(std::isfinite(v));
 }
@@ -262,8 +265,7 @@ TEST_F(ServiceTest, BadInputIsRejectedAndGoodObjectsKeepTheirForces) {
     EXPECT_EQ(forces->find("b")->status, static_cast<int>(bad.code));
     EXPECT_TRUE(forces->find("b")->nodes.empty());
     const auto e = wait_status(*c, [&](const client::StatusEvent& ev) {
-      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "b" &&
-             ev.frame == frame;
+      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "b" && ev.frame == frame;
     });
     ASSERT_TRUE(e) << "no status error for frame " << frame;
     EXPECT_EQ(e->code, static_cast<int>(bad.code)) << e->message;

@@ -111,6 +111,14 @@ TEST(FrameAssembler, FramesMayGoBackwards) {
   EXPECT_EQ(f->frame, 0);
 }
 
+TEST(FrameAssembler, TimeoutCanBeHeldBack) {
+  FrameAssembler a(milliseconds(5));
+  a.add(state("a", 1, t0));
+  EXPECT_FALSE(a.poll({"a", "b"}, t0 + milliseconds(50), false));
+  a.add(state("b", 1, t0 + milliseconds(51)));
+  EXPECT_TRUE(a.poll({"a", "b"}, t0 + milliseconds(51), false));  // complete still goes
+}
+
 TEST(FrameAssembler, ZeroWaitDispatchesImmediately) {
   FrameAssembler a(milliseconds(0));
   a.add(state("a", 1, t0));

@@ -83,9 +83,9 @@ struct Mesh {
 /// One object's positions for a frame (views: the data is copied when published).
 struct ObjectState {
   std::string object;
-  std::span<const double> positions;         ///< 3n, metres
-  std::span<const double> velocities = {};   ///< 3n m/s, or empty
-  std::uint32_t topology_version = 0;        ///< 0 = the version last registered
+  std::span<const double> positions;        ///< 3n, metres
+  std::span<const double> velocities = {};  ///< 3n m/s, or empty
+  std::uint32_t topology_version = 0;       ///< 0 = the version last registered
 };
 
 /// The service's answer for one object and frame.
@@ -127,9 +127,9 @@ struct StatusEvent {
 
 /// Outcome of a registration as the service reported it.
 struct Registration {
-  bool done = false;          ///< false: no verdict before the timeout
-  bool ok = false;            ///< the service built the object
-  std::int32_t code = 0;      ///< StatusCode of a rejection
+  bool done = false;      ///< false: no verdict before the timeout
+  bool ok = false;        ///< the service built the object
+  std::int32_t code = 0;  ///< StatusCode of a rejection
   std::string message;
 };
 
