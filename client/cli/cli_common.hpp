@@ -38,5 +38,9 @@ void print_json(const nlohmann::json& value);
 
 // Subcommand registration; each is defined in cmd_<name>.cpp.
 void add_mesh_command(CLI::App& app, Context& ctx);
+#ifdef TC_WITH_SERVICE
+void add_record_command(CLI::App& app, Context& ctx);
+void add_replay_command(CLI::App& app, Context& ctx);
+#endif
 
 }  // namespace tc::cli

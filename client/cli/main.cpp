@@ -11,6 +11,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "tetcollide 0.1.0");
   tc::cli::Context ctx;
   tc::cli::add_mesh_command(app, ctx);
+#ifdef TC_WITH_SERVICE
+  tc::cli::add_record_command(app, ctx);
+  tc::cli::add_replay_command(app, ctx);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -379,6 +379,18 @@ bool Client::wait_for_service(std::chrono::milliseconds timeout) {
   });
 }
 
+bool Client::wait_for_readers(std::size_t count, std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  for (;;) {
+    dds_publication_matched_status_t status{};
+    check_rc(dds_get_publication_matched_status(impl_->state_writer, &status),
+             "dds_get_publication_matched_status");
+    if (status.current_count >= count) return true;
+    if (Clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
 std::uint32_t Client::register_object(const std::string& object, const Mesh& mesh,
                                       const ObjectParams& params, std::uint32_t version) {
   Impl& m = *impl_;

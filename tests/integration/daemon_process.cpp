@@ -158,6 +158,38 @@ bool DaemonProcess::wait_for_log(const std::string& text, std::chrono::milliseco
   return false;
 }
 
+ChildProcess::~ChildProcess() {
+  if (pid_ > 0) stop(SIGKILL, std::chrono::seconds(10));
+}
+
+bool ChildProcess::start(const std::vector<std::string>& argv, const std::filesystem::path& out,
+                         const std::filesystem::path& err) {
+  pid_ = spawn(argv, out, err);
+  return pid_ > 0;
+}
+
+int ChildProcess::stop(int sig, std::chrono::milliseconds timeout) {
+  if (pid_ <= 0) return -1;
+  ::kill(pid_, sig);
+  int status = wait_exit(pid_, timeout);
+  if (status < 0) {
+    ::kill(pid_, SIGKILL);
+    wait_exit(pid_, std::chrono::seconds(10));
+  }
+  pid_ = -1;
+  return status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+bool wait_for_file_text(const std::filesystem::path& path, const std::string& text,
+                        std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  while (Clock::now() < deadline) {
+    if (read_file(path).find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 RunResult run_program(const std::vector<std::string>& argv, std::chrono::milliseconds timeout) {
   const auto dir = make_temp_dir("run");
   const pid_t pid = spawn(argv, dir / "out", dir / "err");

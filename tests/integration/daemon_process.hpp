@@ -60,6 +60,27 @@ class DaemonProcess {
   int starts_ = 0;
 };
 
+/// Any program run in the background (the recorder), killed with the test.
+class ChildProcess {
+ public:
+  ChildProcess() = default;
+  ~ChildProcess();
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  /// Starts `argv` with stdout and stderr appended to the given files.
+  bool start(const std::vector<std::string>& argv, const std::filesystem::path& out,
+             const std::filesystem::path& err);
+  /// Sends `sig`, waits for the exit; returns the exit code, or -1 (killed, timeout).
+  int stop(int sig, std::chrono::milliseconds timeout = std::chrono::seconds(20));
+
+ private:
+  pid_t pid_ = -1;
+};
+
+/// Waits until the file contains `text`. False on timeout.
+bool wait_for_file_text(const std::filesystem::path& path, const std::string& text,
+                        std::chrono::milliseconds timeout);
+
 /// Runs a program with arguments, stdout and stderr captured, killed after `timeout`.
 struct RunResult {
   int exit_code = -1;  ///< -1 when killed by the timeout or a signal

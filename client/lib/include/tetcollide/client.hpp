@@ -154,6 +154,11 @@ class TC_CLIENT_API Client {
   /// Waits for a service announcing READY. False on timeout.
   bool wait_for_service(std::chrono::milliseconds timeout);
 
+  /// Waits until at least `count` readers (services, recorders) are matched with this
+  /// client's MeshState writer, i.e. until states published now reach them. False on
+  /// timeout.
+  bool wait_for_readers(std::size_t count, std::chrono::milliseconds timeout);
+
   /// Publishes (or, after a cut, replaces) an object's topology. `version` 0 means the
   /// previous version + 1 (1 the first time). Returns the version sent. The sample stays
   /// available to services that start later (transient-local), so a restarted service
