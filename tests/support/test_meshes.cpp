@@ -81,4 +81,8 @@ std::filesystem::path data_path(const std::string& name) {
   return std::filesystem::path(TC_SOURCE_TEST_DATA) / name;
 }
 
+std::filesystem::path mesh_path(const std::string& name) {
+  return std::filesystem::path(TC_SOURCE_MESHES) / name;
+}
+
 }  // namespace tc::test

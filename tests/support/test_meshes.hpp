@@ -29,4 +29,7 @@ TetMesh structured_box(int nx, int ny, int nz, const Eigen::Vector3d& lo,
 /// CTest, else the source tree path compiled in).
 std::filesystem::path data_path(const std::string& name);
 
+/// Path of a mesh in the repository's data/meshes folder (torus.msh, ball.msh, ...).
+std::filesystem::path mesh_path(const std::string& name);
+
 }  // namespace tc::test

@@ -3,6 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
+#include "core/io/mesh_io.hpp"
+
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
 
@@ -117,6 +121,51 @@ TEST(Topology, DeterministicAcrossBuilds) {
   EXPECT_EQ(a.node_adjacency.indices, b.node_adjacency.indices);
   EXPECT_EQ(a.tet_neighbors, b.tet_neighbors);
 }
+
+}  // namespace
+}  // namespace tc
+
+namespace tc {
+namespace {
+
+// The bundled Gmsh meshes: closed boundaries with the Euler characteristic of their shape.
+struct BundledMesh {
+  const char* file;
+  Index euler;
+};
+
+class BundledTopology : public ::testing::TestWithParam<BundledMesh> {};
+
+TEST_P(BundledTopology, ClosedBoundaryWithTheRightEulerCharacteristic) {
+  auto mesh = read_mesh(test::mesh_path(GetParam().file));
+  ASSERT_TRUE(mesh.has_value()) << mesh.error().message;
+  const Topology t = build_topology(mesh->tets, mesh->num_nodes());
+  EXPECT_EQ(boundary_euler_characteristic(t), GetParam().euler);
+  EXPECT_EQ(t.num_components, 1);
+  EXPECT_EQ(t.nonmanifold_faces, 0);
+  EXPECT_TRUE(t.orphan_nodes.empty());
+  // Closed: every boundary edge is shared by exactly two boundary faces.
+  std::map<std::array<Index, 2>, int> uses;
+  for (const auto& f : t.boundary_faces)
+    for (int k = 0; k < 3; ++k)
+      ++uses[{std::min(f[k], f[(k + 1) % 3]), std::max(f[k], f[(k + 1) % 3])}];
+  for (const auto& [edge, count] : uses) EXPECT_EQ(count, 2);
+  // Outward: the boundary encloses the tets' volume with a positive sign.
+  double tets_volume = 0.0, surface_volume = 0.0;
+  for (const Tet& tet : mesh->tets) tets_volume += signed_volume(mesh->positions, tet);
+  for (const auto& f : t.boundary_faces)
+    surface_volume +=
+        mesh->positions.col(f[0]).dot(mesh->positions.col(f[1]).cross(mesh->positions.col(f[2]))) /
+        6.0;
+  EXPECT_NEAR(surface_volume, tets_volume, 1e-9 * tets_volume);
+  EXPECT_GT(tets_volume, 0.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(DataMeshes, BundledTopology,
+                         ::testing::Values(BundledMesh{"torus.msh", 0}, BundledMesh{"ball.msh", 2},
+                                           BundledMesh{"box.msh", 2},
+                                           BundledMesh{"ellipsoid.msh", 2},
+                                           BundledMesh{"slab.msh", 2}));
 
 }  // namespace
 }  // namespace tc

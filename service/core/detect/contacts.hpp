@@ -40,13 +40,13 @@ struct IntrudingEdge {
 
 /// Detection result for one object pair (A, B).
 struct PairContacts {
-  std::vector<TetPair> overlapping;          ///< sorted by (tet_a, tet_b)
-  std::vector<Index> marked_a;               ///< tets of A in some overlap, sorted
-  std::vector<Index> marked_b;               ///< tets of B in some overlap, sorted
-  std::vector<IntrudingNode> nodes_a_in_b;   ///< nodes of A inside tets of B, by node
-  std::vector<IntrudingNode> nodes_b_in_a;   ///< nodes of B inside tets of A, by node
-  std::vector<IntrudingEdge> edges_a_in_b;   ///< edges of A crossing tets of B, by (edge, tet)
-  std::vector<IntrudingEdge> edges_b_in_a;   ///< edges of B crossing tets of A, by (edge, tet)
+  std::vector<TetPair> overlapping;         ///< sorted by (tet_a, tet_b)
+  std::vector<Index> marked_a;              ///< tets of A in some overlap, sorted
+  std::vector<Index> marked_b;              ///< tets of B in some overlap, sorted
+  std::vector<IntrudingNode> nodes_a_in_b;  ///< nodes of A inside tets of B, by node
+  std::vector<IntrudingNode> nodes_b_in_a;  ///< nodes of B inside tets of A, by node
+  std::vector<IntrudingEdge> edges_a_in_b;  ///< edges of A crossing tets of B, by (edge, tet)
+  std::vector<IntrudingEdge> edges_b_in_a;  ///< edges of B crossing tets of A, by (edge, tet)
 
   [[nodiscard]] bool empty() const { return overlapping.empty(); }
 };

@@ -2,7 +2,28 @@
 //
 // Readers never crash or hang on hostile input: every count is checked against the
 // bytes that remain, and an error names the file, the line (text) or byte offset
-// (binary), and what was expected.
+// (binary), and what was expected: "box.msh:17: expected 4 node tags for element 12,
+// got 3", "box.msh: byte 7904: element 117 refers to unknown node tag 4000".
+// Error codes: kIo (cannot open/read), kParse (malformed or truncated, wrong counts),
+// kUnsupported (MSH 1/4.0, binary 2.2, big-endian, data-size other than 8, 10-node
+// TetGen tets, binary blocks of polygons), kInvalidMesh (non-finite coordinate,
+// duplicate node tag, element referring to an unknown node).
+//
+// Decisions:
+// - Gmsh: records are read line by line as Gmsh writes them; anything between sections
+//   is ignored and unknown sections are skipped up to their $End line, as Gmsh does.
+//   Sections may repeat (nodes accumulate). Nodes must come before the elements that
+//   use them (the format says so). Node tags may be any value in [0, 2^63) (Gmsh
+//   reserves 0; we accept it); they are not required to be sorted or contiguous.
+//   4.1 headers are checked: numNodes/numElements must equal the blocks' sum and every
+//   node tag must lie in [minNodeTag, maxNodeTag]. In ASCII, elements of unknown type
+//   are skipped line by line; in binary their size must be known (GmshDefines.h table).
+//   Binary $Entities is parsed (not searched for its end marker).
+// - TetGen: the first point's index (0 or 1) sets the numbering base, as in TetGen;
+//   later indices must follow consecutively (a skipped index is an error, since TetGen
+//   itself would ignore it and refer to points by position). Missing attributes and
+//   markers read as 0 (TetGen does the same); extra values and extra lines are errors.
+// - Readers never reorder nodes or flip tets; validate_mesh() judges orientation.
 #pragma once
 
 #include <filesystem>
@@ -44,6 +65,20 @@ Expected<TriMesh2> read_gmsh_triangles_buffer(std::string_view data, const std::
 Expected<TetMesh> read_tetgen(const std::filesystem::path& path);
 Expected<TetMesh> read_tetgen_buffers(std::string_view node_text, std::string_view ele_text,
                                       const std::string& name);
+
+/// Gmsh output flavours of write_gmsh().
+enum class GmshFormat { kMsh22Ascii, kMsh41Ascii, kMsh41Binary };
+
+/// The mesh as the text (or bytes) of a Gmsh file: node ids as node tags (they must be
+/// positive and unique), one tet element (type 4) per tet, element tags 1..m. 4.1 files
+/// hold one node block and one element block on volume entity 1 and no $Entities.
+Expected<std::string> format_gmsh(const TetMesh& mesh, GmshFormat format);
+/// Writes format_gmsh() to a file.
+Status write_gmsh(const std::filesystem::path& path, const TetMesh& mesh, GmshFormat format);
+
+/// Number of nodes of a Gmsh element type (1 for points, 4 for 4-node tets, 10 for
+/// type 11, ...), or 0 for unknown types and types of variable size (polygons).
+int gmsh_element_node_count(int type) noexcept;
 
 /// A per-node (point data) or per-tet (cell data) field for the VTU writer.
 struct VtuField {

@@ -20,11 +20,11 @@ enum class ResponseKind { kPoint, kSegment, kAuto };
 
 /// Per-object parameters, sent with the object's topology.
 struct ObjectParams {
-  double stiffness = 1e4;       ///< penalty stiffness k, N/m^2 (force = k * depth * area scale)
-  double damping = 0.0;         ///< penalty damping, N s/m per unit depth rate
-  double max_force = 0.0;       ///< cap on one node's force magnitude, N; 0 = no cap
-  bool is_static = false;       ///< static objects never move: fields are cached, and two
-                                ///< static objects are never tested against each other
+  double stiffness = 1e4;  ///< penalty stiffness k, N/m^2 (force = k * depth * area scale)
+  double damping = 0.0;    ///< penalty damping, N s/m per unit depth rate
+  double max_force = 0.0;  ///< cap on one node's force magnitude, N; 0 = no cap
+  bool is_static = false;  ///< static objects never move: fields are cached, and two
+                           ///< static objects are never tested against each other
   DepthMethod depth = DepthMethod::kCpfm;
   ResponseKind response = ResponseKind::kAuto;
 };
@@ -32,9 +32,9 @@ struct ObjectParams {
 /// Sparse per-node forces on one object for one frame.
 struct ObjectForces {
   std::string object;
-  std::vector<Index> nodes;                  ///< sorted node indices (0-based, file order)
-  std::vector<Eigen::Vector3d> forces;       ///< one per entry of nodes, N
-  std::vector<Eigen::Matrix3d> stiffness;    ///< empty, or one df/dx block per entry, N/m
+  std::vector<Index> nodes;                ///< sorted node indices (0-based, file order)
+  std::vector<Eigen::Vector3d> forces;     ///< one per entry of nodes, N
+  std::vector<Eigen::Matrix3d> stiffness;  ///< empty, or one df/dx block per entry, N/m
 };
 
 }  // namespace tc
