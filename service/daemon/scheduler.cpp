@@ -184,6 +184,11 @@ bool Scheduler::shutdown(std::chrono::milliseconds timeout) {
   return idle;
 }
 
+std::size_t Scheduler::active_scenes() const {
+  std::lock_guard lock(impl_->slots_mutex);
+  return impl_->slots.size();
+}
+
 std::uint64_t Scheduler::dropped_frames() const {
   return impl_->dropped_total.load();
 }

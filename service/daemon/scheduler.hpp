@@ -41,6 +41,9 @@ class Scheduler final : public JobSink {
   /// `timeout`. Returns false on timeout. Later posts are ignored.
   bool shutdown(std::chrono::milliseconds timeout);
 
+  /// Scenes with a runner or queued jobs (a closed scene leaves once its jobs are done).
+  [[nodiscard]] std::size_t active_scenes() const;
+
   /// Frame jobs dropped so far across all scenes.
   [[nodiscard]] std::uint64_t dropped_frames() const;
 

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <csignal>
+#include <fstream>
 #include <map>
 #include <thread>
 
@@ -376,6 +377,41 @@ TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
     // Answered without the 50 ms assembly wait.
     EXPECT_LT(std::chrono::steady_clock::now() - t0, 45ms) << "frame " << f;
   }
+}
+
+}  // namespace
+}  // namespace tc::itest
+
+namespace tc::itest {
+namespace {
+
+// The daemon's command line: usage errors exit 2, bad configuration exits 3 with the
+// file, line and column; neither starts DDS.
+TEST(DaemonCommandLine, UsageAndConfigurationErrors) {
+  using namespace std::chrono_literals;
+  const std::string daemon = program_from_env("TC_DAEMON");
+  const auto dir = make_temp_dir("itest-cli");
+  const auto bad = dir / "bad.yaml";
+  std::ofstream(bad) << "version: 1\nframes:\n  assembly_wait_ms: -5\n";
+  auto r = run_program({daemon, "--config", bad.string()}, 20s);
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("bad.yaml:3:21: 'frames.assembly_wait_ms' must be in"), std::string::npos)
+      << r.err;
+  const auto unknown = dir / "unknown.yaml";
+  std::ofstream(unknown) << "version: 1\nlog:\n  colour: red\n";
+  r = run_program({daemon, "--config", unknown.string()}, 20s);
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("unknown.yaml:3:3: unknown key 'log.colour'"), std::string::npos) << r.err;
+  r = run_program({daemon, "--domain", "999"}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--config", (dir / "missing.yaml").string()}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--log-level", "loud"}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--version"}, 20s);
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("tetcollided 0.1.0"), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
