@@ -39,7 +39,8 @@ struct Scheduler::Impl {
   std::size_t max_queued_frames;
   RunnerFactory factory;
 
-  std::mutex slots_mutex;  // lock order: slots_mutex before any Slot::mutex
+  // Lock order: slots_mutex, then a Slot::mutex, then idle_mutex; never the reverse.
+  std::mutex slots_mutex;
   std::map<std::string, std::shared_ptr<Slot>> slots;
   bool stopping = false;
   std::atomic<std::uint64_t> dropped_total{0};
@@ -66,9 +67,10 @@ struct Scheduler::Impl {
   void drain_one(const std::string& scene, const std::shared_ptr<Slot>& slot) {
     SceneJob job;
     {
-      std::lock_guard lock(slot->mutex);
-      if (slot->jobs.empty()) {
+      std::unique_lock lock(slot->mutex);
+      if (slot->jobs.empty()) {  // emptied by shutdown()
         slot->running = false;
+        lock.unlock();
         finished();
         return;
       }
@@ -174,9 +176,11 @@ bool Scheduler::shutdown(std::chrono::milliseconds timeout) {
       slot->jobs.clear();
     }
   }
-  std::unique_lock lock(impl_->idle_mutex);
-  const bool idle =
-      impl_->idle_cv.wait_for(lock, timeout, [this] { return impl_->in_flight == 0; });
+  bool idle = false;
+  {
+    std::unique_lock lock(impl_->idle_mutex);
+    idle = impl_->idle_cv.wait_for(lock, timeout, [this] { return impl_->in_flight == 0; });
+  }
   if (idle) {
     std::lock_guard slots_lock(impl_->slots_mutex);
     impl_->slots.clear();
