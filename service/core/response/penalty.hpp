@@ -1,0 +1,150 @@
+// Penalty forces of one contact (paper Section 5): a node of an intruding object X inside
+// a tet of the penetrated object Y (point-in-object, 5.1), or the part of an edge of X
+// inside a tet of Y (segment-in-object, 5.2). The force pushes X's node(s) out of Y along
+// the depth gradient of Y; the equal and opposite reaction goes to the four nodes of Y's
+// tet with the barycentric weights of the point(s) of application, so every contact has
+// zero net force and zero net moment. Derivations: docs/RESPONSE.md.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "core/detect/contacts.hpp"
+#include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
+#include "core/scene/scene.hpp"
+
+namespace tc {
+
+/// What a unit of penetration is measured against.
+enum class ForceMeasure {
+  /// Default. The penalty is a force per metre of the intruding object's edges:
+  /// stiffness k in N/m^2 (N per metre of depth per metre of edge), damping in N s/m^2.
+  /// The segment response integrates k d along the clipped edge in arc length; the point
+  /// response lumps the same integral on the node: weight w = half the summed length of
+  /// the node's edges. Both are quadratures of one functional (docs/RESPONSE.md).
+  kEdgeLength,
+  /// The paper's plain penalty spring: f = k d n per intruding node, k in N/m, damping
+  /// in N s/m; the segment response integrates over the edge parameter lambda in [0, 1].
+  kUnit,
+};
+
+/// Which 3x3 blocks df/dx (N/m) come with the forces. They are the diagonal blocks of
+/// the Jacobian: node i's force against node i's own position; node-to-node coupling is
+/// not returned (ObjectForces has one block per node).
+enum class StiffnessMode {
+  kNone,
+  /// Default when blocks are wanted: the dominant term -k w |grad d| n n^T, lumped per
+  /// object by row sums (the intruding node gets its own block, the penetrated tet's
+  /// node k gets beta_k times it; segment ends get the integral of their hat function).
+  /// Symmetric, negative semi-definite, and never softer than the coupled contact
+  /// stiffness of either object, so a block-diagonal implicit solve stays stable.
+  kLumped,
+  /// The exact diagonal blocks of the elastic force with the depth values held fixed
+  /// (depth, direction, barycentric-weight, edge-length and clip-limit terms; not
+  /// symmetric). Contacts on the fallback path get the kLumped blocks.
+  kExact,
+};
+
+/// Settings of the response of one object pair.
+struct ResponseOptions {
+  ResponseKind kind = ResponseKind::kAuto;  ///< point, segment, or by mesh density
+  double stiffness = 1e4;                   ///< k >= 0; units per `measure`
+  double damping = 0.0;                     ///< c >= 0 on the penetration rate; units per `measure`
+  ForceMeasure measure = ForceMeasure::kEdgeLength;
+  StiffnessMode stiffness_mode = StiffnessMode::kNone;
+  /// The paper's behaviour: push the intruding node(s) only, no reaction on the
+  /// penetrated object (net force no longer zero).
+  bool push_point_only = false;
+  /// kAuto picks the segment response for the features of X entering Y when the RMS
+  /// edge length of X's contact tets exceeds this fraction of the contact extent (the
+  /// diagonal of the overlap of the two objects' contact-tet boxes). Dimensionless.
+  double auto_threshold = 0.25;
+  /// Depth gradients are trusted when min_gradient <= |grad d| <= max_gradient
+  /// (dimensionless: a distance field has |grad d| = 1); otherwise the fallback
+  /// direction is used (equal node depths, four boundary nodes, slivers, flat tets).
+  double min_gradient = 1e-6;
+  double max_gradient = 10.0;
+  /// Point or segment contacts per direction above which the per-contact work runs in
+  /// parallel (TBB); the forces are summed in contact order either way.
+  std::size_t parallel_threshold = 4096;
+};
+
+/// Read-only view of one object in a pair. Every pointer must outlive the call.
+struct ResponseObject {
+  const Positions* positions = nullptr;   ///< 3 x n node positions, metres
+  std::span<const Tet> tets;              ///< m tets, indices into positions
+  const Topology* topology = nullptr;     ///< topology of `tets` (edges, node_adjacency,
+                                          ///< node_tets, tet_neighbors)
+  std::span<const double> depth;          ///< n depth values, metres: 0 on the boundary,
+                                          ///< > 0 inside; must be finite on the nodes of
+                                          ///< the tets named by the contacts
+  const Positions* velocities = nullptr;  ///< optional 3 x n, m/s (damping only)
+};
+
+/// How a contact's push-out direction was found.
+enum class Fallback : std::uint8_t {
+  kNone,           ///< the depth gradient of the tet
+  kOwnFace,        ///< nearest boundary face of the tet itself (plane depth also used)
+  kRingFace,       ///< nearest boundary face among tets sharing a node with the tet
+  kPairDirection,  ///< from the centre of Y's contact tets to the centre of X's
+  kAxis,           ///< +z: nothing else was defined
+};
+
+/// Forces of one contact on at most six nodes.
+struct ContactResult {
+  ContactResult() {
+    force.fill(Eigen::Vector3d::Zero());
+    stiffness.fill(Eigen::Matrix3d::Zero());
+  }
+  bool active = false;    ///< produced a non-zero force
+  bool skipped = false;   ///< non-finite position, depth or weight: no force
+  bool inverted = false;  ///< the penetrated tet has negative volume (still processed)
+  Fallback fallback = Fallback::kNone;
+  int intruder_nodes = 0;  ///< 1 (point) or 2 (segment: edge ends a, b)
+  int target_nodes = 0;    ///< 4 reactions, or 0 with push_point_only
+  /// node[0 .. intruder_nodes): nodes of X; then target_nodes nodes of Y's tet.
+  std::array<Index, 6> node{};
+  std::array<Eigen::Vector3d, 6> force;              ///< N, per node entry
+  std::array<Eigen::Matrix3d, 6> stiffness;          ///< df/dx, N/m, per node entry (if asked)
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit push-out direction of X
+  double depth = 0.0;                                ///< deepest penetration used, metres
+};
+
+/// Point-in-object: node c.node of X inside tet c.tet of Y (paper 5.1).
+///
+/// depth = sum_k beta_k d_k with the detection's barycentric weights beta (clamped to
+/// >= 0 and renormalised), n = -grad d / |grad d| of Y's linear depth in the tet,
+/// f = (k w depth - c w n.v_rel)^+ n on the node, -beta_k f on the tet's node k.
+///
+/// @param[in] intruder        X (positions, topology for the node weight, velocities).
+/// @param[in] target          Y (positions, tets, topology for fallbacks, depth, velocities).
+/// @param[in] c               the contact; indices must be in range (compute_pair_response
+///                            checks them).
+/// @param[in] options         stiffness, damping, measure, blocks, gradient limits.
+/// @param[in] pair_direction  unit push-out direction for kPairDirection, or zero.
+ContactResult point_contact(const ResponseObject& intruder, const ResponseObject& target,
+                            const IntrudingNode& c, const ResponseOptions& options,
+                            const Eigen::Vector3d& pair_direction);
+
+/// Segment-in-object: the part [lambda_in, lambda_out] of edge c.edge of X (a, b) =
+/// intruder.topology->edges[c.edge] inside tet c.tet of Y (paper 5.2).
+///
+/// The linear penalty density k d(x(lambda)) n along the clipped part is replaced by
+/// its statically equivalent forces at the clip points x1, x2 (L = clipped length):
+///     f1 = L (2 m1 + m2) / 6 n,  f2 = L (m1 + 2 m2) / 6 n,  m_i = (k d_i - c n.v_rel_i)^+,
+/// moved to the edge ends with the weights of x = a + lambda (b - a):
+///     f_a = (1 - l1) f1 + (1 - l2) f2,  f_b = l1 f1 + l2 f2,
+/// and the reactions -(beta_k(x1) f1 + beta_k(x2) f2) to the tet's nodes. This is the
+/// exact integral of the density against the edge's linear shape functions.
+ContactResult segment_contact(const ResponseObject& intruder, const ResponseObject& target,
+                              const IntrudingEdge& c, const ResponseOptions& options,
+                              const Eigen::Vector3d& pair_direction);
+
+/// The point response's lumped length weight of a node, metres: half the summed length
+/// of the node's edges (intruder.topology->node_adjacency) at the current positions.
+double node_length_weight(const ResponseObject& object, Index node);
+
+}  // namespace tc

@@ -1,0 +1,448 @@
+#include "core/response/response.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <type_traits>
+
+#include "core/mesh/geometry.hpp"
+
+namespace tc {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+
+Error invalid(std::string message) {
+  return Error{ErrorCode::kInvalidArgument, std::move(message)};
+}
+
+std::string range_text(Index value, std::size_t size) {
+  return std::to_string(value) + " out of range [0, " + std::to_string(size) + ")";
+}
+
+Status validate_object(const ResponseObject& o, const char* name) {
+  const std::string who = std::string("response: object ") + name;
+  if (o.positions == nullptr || o.topology == nullptr)
+    return invalid(who + ": positions and topology are required");
+  const auto n = static_cast<std::size_t>(o.positions->cols());
+  if (static_cast<std::size_t>(o.topology->num_nodes) != n)
+    return invalid(who + ": topology has " + std::to_string(o.topology->num_nodes) +
+                   " nodes, positions have " + std::to_string(n));
+  if (static_cast<std::size_t>(o.topology->num_tets) != o.tets.size() ||
+      o.topology->tet_neighbors.size() != o.tets.size())
+    return invalid(who + ": topology has " + std::to_string(o.topology->num_tets) +
+                   " tets, the tet list has " + std::to_string(o.tets.size()));
+  if (o.depth.size() != n)
+    return invalid(who + ": depth has " + std::to_string(o.depth.size()) + " values for " +
+                   std::to_string(n) + " nodes");
+  if (o.velocities != nullptr && static_cast<std::size_t>(o.velocities->cols()) != n)
+    return invalid(who + ": velocities have " + std::to_string(o.velocities->cols()) +
+                   " columns for " + std::to_string(n) + " nodes");
+  return {};
+}
+
+Status validate_options(const ResponseOptions& o) {
+  const auto bad = [](double v) { return !std::isfinite(v) || v < 0.0; };
+  if (bad(o.stiffness)) return invalid("response: stiffness must be finite and >= 0");
+  if (bad(o.damping)) return invalid("response: damping must be finite and >= 0");
+  if (bad(o.auto_threshold)) return invalid("response: auto_threshold must be finite and >= 0");
+  if (bad(o.min_gradient) || !(o.max_gradient > o.min_gradient) || std::isnan(o.max_gradient))
+    return invalid("response: need 0 <= min_gradient < max_gradient");
+  return {};
+}
+
+Status validate_marked(std::span<const Index> marked, std::size_t tets, const char* list) {
+  for (std::size_t i = 0; i < marked.size(); ++i)
+    if (marked[i] < 0 || static_cast<std::size_t>(marked[i]) >= tets)
+      return invalid(std::string("response: ") + list + "[" + std::to_string(i) + "]: tet " +
+                     range_text(marked[i], tets));
+  return {};
+}
+
+std::string where(const char* list, std::size_t i) {
+  return std::string("response: ") + list + "[" + std::to_string(i) + "]: ";
+}
+
+Status validate_nodes(std::span<const IntrudingNode> list, std::size_t nodes, std::size_t tets,
+                      const char* name) {
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    if (list[i].node < 0 || static_cast<std::size_t>(list[i].node) >= nodes)
+      return invalid(where(name, i) + "node " + range_text(list[i].node, nodes));
+    if (list[i].tet < 0 || static_cast<std::size_t>(list[i].tet) >= tets)
+      return invalid(where(name, i) + "tet " + range_text(list[i].tet, tets));
+  }
+  return {};
+}
+
+Status validate_edges(std::span<const IntrudingEdge> list, std::size_t edges, std::size_t tets,
+                      const char* name) {
+  constexpr double kSlack = 1e-6;  // detection's rounding on lambda
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const IntrudingEdge& e = list[i];
+    if (e.edge < 0 || static_cast<std::size_t>(e.edge) >= edges)
+      return invalid(where(name, i) + "edge " + range_text(e.edge, edges));
+    if (e.tet < 0 || static_cast<std::size_t>(e.tet) >= tets)
+      return invalid(where(name, i) + "tet " + range_text(e.tet, tets));
+    // Non-finite lambdas are skipped with a count; finite ones must be ordered in [0, 1].
+    if (std::isfinite(e.lambda_in) && std::isfinite(e.lambda_out) &&
+        (e.lambda_in < -kSlack || e.lambda_out > 1.0 + kSlack ||
+         e.lambda_in > e.lambda_out + kSlack))
+      return invalid(where(name, i) + "need 0 <= lambda_in <= lambda_out <= 1, got [" +
+                     std::to_string(e.lambda_in) + ", " + std::to_string(e.lambda_out) + "]");
+  }
+  return {};
+}
+
+/// Box, centre and (when asked) RMS edge length of an object's contact tets.
+struct ContactRegion {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
+  Vec3 centre = Vec3::Zero();
+  double rms_edge = 0.0;
+  bool empty = true;
+};
+
+ContactRegion contact_region(const ResponseObject& o, std::span<const Index> marked, bool edges) {
+  ContactRegion region;
+  // Estimates, not exact values: a deterministic stride over at most ~1024 tets for the
+  // box and centre and ~256 for the RMS edge length keeps this pass cheaper than the
+  // contacts themselves on large contacts (every marked tet of a fine mesh otherwise).
+  const std::size_t box_stride = std::max<std::size_t>(1, marked.size() / 1024);
+  const std::size_t stride = std::max<std::size_t>(1, marked.size() / 256);
+  double edge_sum = 0.0;
+  std::size_t count = 0, edge_tets = 0;
+  for (std::size_t i = 0; i < marked.size(); i += box_stride) {
+    const Tet& tet = o.tets[static_cast<std::size_t>(marked[i])];
+    const std::array<Vec3, 4> x = {o.positions->col(tet[0]), o.positions->col(tet[1]),
+                                   o.positions->col(tet[2]), o.positions->col(tet[3])};
+    const Vec3 sum = x[0] + x[1] + x[2] + x[3];
+    if (!sum.allFinite()) continue;
+    region.lo = region.lo.cwiseMin(x[0].cwiseMin(x[1]).cwiseMin(x[2].cwiseMin(x[3])));
+    region.hi = region.hi.cwiseMax(x[0].cwiseMax(x[1]).cwiseMax(x[2].cwiseMax(x[3])));
+    region.centre += 0.25 * sum;
+    ++count;
+    if (edges && (i / box_stride) % std::max<std::size_t>(1, stride / box_stride) == 0) {
+      for (const auto& e : kTetEdges) edge_sum += (x[e[0]] - x[e[1]]).squaredNorm();
+      ++edge_tets;
+    }
+  }
+  if (count > 0) {
+    region.empty = false;
+    region.centre /= static_cast<double>(count);
+  }
+  if (edge_tets > 0) region.rms_edge = std::sqrt(edge_sum / (6.0 * static_cast<double>(edge_tets)));
+  return region;
+}
+
+ContactDensity density_of(const ContactRegion& x, const ContactRegion& y) {
+  ContactDensity density;
+  density.rms_edge = x.rms_edge;
+  if (!x.empty && !y.empty) {
+    const Vec3 lo = x.lo.cwiseMax(y.lo), hi = x.hi.cwiseMin(y.hi);
+    density.contact_extent = (hi - lo).cwiseMax(0.0).norm();
+  }
+  return density;
+}
+
+}  // namespace
+
+void ResponseStats::add(const ResponseStats& other) {
+  point_contacts += other.point_contacts;
+  segment_contacts += other.segment_contacts;
+  inactive += other.inactive;
+  skipped += other.skipped;
+  inverted += other.inverted;
+  fallback_own_face += other.fallback_own_face;
+  fallback_ring_face += other.fallback_ring_face;
+  fallback_pair += other.fallback_pair;
+  fallback_axis += other.fallback_axis;
+  max_depth = std::max(max_depth, other.max_depth);
+}
+
+ContactDensity measure_contact_density(const ResponseObject& x, std::span<const Index> marked_x,
+                                       const ResponseObject& y, std::span<const Index> marked_y) {
+  return density_of(contact_region(x, marked_x, true), contact_region(y, marked_y, false));
+}
+
+ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
+                                  double threshold) {
+  if (requested != ResponseKind::kAuto) return requested;
+  return density.rms_edge > threshold * density.contact_extent ? ResponseKind::kSegment
+                                                               : ResponseKind::kPoint;
+}
+
+ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
+  ResponseOptions o;
+  if (a.response == b.response)
+    o.kind = a.response;
+  else if (a.response == ResponseKind::kAuto)
+    o.kind = b.response;
+  else if (b.response == ResponseKind::kAuto)
+    o.kind = a.response;
+  else
+    o.kind = ResponseKind::kSegment;
+  o.stiffness = std::min(a.stiffness, b.stiffness);
+  o.damping = std::max(a.damping, b.damping);
+  return o;
+}
+
+void ResponseAccumulator::NodeSums::prepare(Index n, bool blocks) {
+  const auto size = static_cast<std::size_t>(n);
+  if (force.size() < size) {
+    force.resize(size, Vec3::Zero());
+    used.resize(size, 0);
+  }
+  if (blocks && stiffness.size() < force.size()) stiffness.resize(force.size(), Mat3::Zero());
+  touched.clear();
+}
+
+void ResponseAccumulator::NodeSums::add(Index node, const Vec3& f, const Mat3* k) {
+  const auto i = static_cast<std::size_t>(node);
+  if (used[i] == 0) {
+    used[i] = 1;
+    touched.push_back(node);
+  }
+  force[i] += f;
+  if (k != nullptr) stiffness[i] += *k;
+}
+
+void ResponseAccumulator::NodeSums::extract(ObjectForces& out, bool blocks) {
+  std::sort(touched.begin(), touched.end());
+  out.nodes = touched;
+  out.forces.resize(touched.size());
+  out.stiffness.resize(blocks ? touched.size() : 0);
+  for (std::size_t j = 0; j < touched.size(); ++j) {
+    const auto i = static_cast<std::size_t>(touched[j]);
+    out.forces[j] = force[i];
+    force[i].setZero();
+    if (blocks) {
+      out.stiffness[j] = stiffness[i];
+      stiffness[i].setZero();
+    }
+    used[i] = 0;
+  }
+  touched.clear();
+}
+
+Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObject& b,
+                                    const PairContacts& contacts, const ResponseOptions& options,
+                                    PairResponse& out) {
+  // Reset without freeing: a reused PairResponse keeps its capacity across frames.
+  for (ObjectForces* f : {&out.a, &out.b}) {
+    f->nodes.clear();
+    f->forces.clear();
+    f->stiffness.clear();
+  }
+  out.used_a_in_b = out.used_b_in_a = ResponseKind::kPoint;
+  out.stats = ResponseStats{};
+  if (Status s = validate_options(options); !s) return s;
+  if (Status s = validate_object(a, "A"); !s) return s;
+  if (Status s = validate_object(b, "B"); !s) return s;
+  const bool blocks = options.stiffness_mode != StiffnessMode::kNone;
+  if (contacts.nodes_a_in_b.empty() && contacts.nodes_b_in_a.empty() &&
+      contacts.edges_a_in_b.empty() && contacts.edges_b_in_a.empty())
+    return {};  // no overlap: nothing to do
+  if (Status s = validate_marked(contacts.marked_a, a.tets.size(), "marked_a"); !s) return s;
+  if (Status s = validate_marked(contacts.marked_b, b.tets.size(), "marked_b"); !s) return s;
+
+  // kAuto measures the contact regions; other kinds skip that work.
+  if (options.kind == ResponseKind::kAuto) {
+    const ContactRegion region_a = contact_region(a, contacts.marked_a, true);
+    const ContactRegion region_b = contact_region(b, contacts.marked_b, true);
+    out.used_a_in_b =
+        choose_response_kind(options.kind, density_of(region_a, region_b), options.auto_threshold);
+    out.used_b_in_a =
+        choose_response_kind(options.kind, density_of(region_b, region_a), options.auto_threshold);
+  } else {
+    out.used_a_in_b = out.used_b_in_a = options.kind;
+  }
+  const bool seg_ab = out.used_a_in_b == ResponseKind::kSegment;
+  const bool seg_ba = out.used_b_in_a == ResponseKind::kSegment;
+  const std::size_t n_a = static_cast<std::size_t>(a.positions->cols());
+  const std::size_t n_b = static_cast<std::size_t>(b.positions->cols());
+  Status s = seg_ab ? validate_edges(contacts.edges_a_in_b, a.topology->edges.size(), b.tets.size(),
+                                     "edges_a_in_b")
+                    : validate_nodes(contacts.nodes_a_in_b, n_a, b.tets.size(), "nodes_a_in_b");
+  if (!s) return s;
+  s = seg_ba ? validate_edges(contacts.edges_b_in_a, b.topology->edges.size(), a.tets.size(),
+                              "edges_b_in_a")
+             : validate_nodes(contacts.nodes_b_in_a, n_b, a.tets.size(), "nodes_b_in_a");
+  if (!s) return s;
+
+  // Fallback direction 3, from B's contact centre towards A's: computed on first need
+  // (a contact whose gradient and boundary faces both failed), then reused.
+  bool have_pair_direction = false;
+  Vec3 dir_ab = Vec3::Zero();
+  const auto pair_direction = [&]() -> const Vec3& {
+    if (!have_pair_direction) {
+      have_pair_direction = true;
+      const ContactRegion region_a = contact_region(a, contacts.marked_a, false);
+      const ContactRegion region_b = contact_region(b, contacts.marked_b, false);
+      if (!region_a.empty && !region_b.empty) {
+        const Vec3 d = region_a.centre - region_b.centre;
+        const double scale =
+            std::max((region_a.hi - region_a.lo).norm(), (region_b.hi - region_b.lo).norm());
+        if (d.norm() > 1e-9 * scale && d.allFinite()) dir_ab = d.normalized();
+      }
+    }
+    return dir_ab;
+  };
+
+  sums_a_.prepare(a.positions->cols(), blocks);
+  sums_b_.prepare(b.positions->cols(), blocks);
+  ResponseStats& st = out.stats;
+
+  const auto accumulate = [&](const ContactResult& r, bool segment, NodeSums& xs, NodeSums& ys) {
+    if (r.skipped) {
+      ++st.skipped;
+      return;
+    }
+    if (r.inverted) ++st.inverted;
+    if (!r.active) {
+      ++st.inactive;
+      return;
+    }
+    ++(segment ? st.segment_contacts : st.point_contacts);
+    switch (r.fallback) {
+      case Fallback::kNone:
+        break;
+      case Fallback::kOwnFace:
+        ++st.fallback_own_face;
+        break;
+      case Fallback::kRingFace:
+        ++st.fallback_ring_face;
+        break;
+      case Fallback::kPairDirection:
+        ++st.fallback_pair;
+        break;
+      case Fallback::kAxis:
+        ++st.fallback_axis;
+        break;
+    }
+    st.max_depth = std::max(st.max_depth, r.depth);
+    for (int i = 0; i < r.intruder_nodes; ++i)
+      xs.add(r.node[i], r.force[i], blocks ? &r.stiffness[i] : nullptr);
+    for (int j = 0; j < r.target_nodes; ++j) {
+      const int e = r.intruder_nodes + j;
+      ys.add(r.node[e], r.force[e], blocks ? &r.stiffness[e] : nullptr);
+    }
+  };
+  // Per-contact work, in parallel for large lists; the sums always run in list order.
+  // Kernels first run without the pair direction; the rare contact that needs it
+  // (fallback kAxis) is redone with it, in the ordered pass.
+  const auto run = [&](const auto& list, bool segment, const ResponseObject& x,
+                       const ResponseObject& y, NodeSums& xs, NodeSums& ys, double sign) {
+    const auto kernel = [&](const auto& c, const Vec3& dir) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingEdge>)
+        return segment_contact(x, y, c, options, dir);
+      else
+        return point_contact(x, y, c, options, dir);
+    };
+    const auto finish = [&](const auto& c, const ContactResult& r) {
+      if (r.fallback == Fallback::kAxis && !r.skipped) {
+        const Vec3 dir = sign * pair_direction();
+        if (!dir.isZero()) {
+          accumulate(kernel(c, dir), segment, xs, ys);
+          return;
+        }
+      }
+      accumulate(r, segment, xs, ys);
+    };
+    const Vec3 none = Vec3::Zero();
+    if (list.size() >= std::max<std::size_t>(options.parallel_threshold, 1)) {
+      results_.resize(list.size());
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 64),
+                        [&](const tbb::blocked_range<std::size_t>& range) {
+                          for (std::size_t i = range.begin(); i != range.end(); ++i)
+                            results_[i] = kernel(list[i], none);
+                        });
+      for (std::size_t i = 0; i < list.size(); ++i) finish(list[i], results_[i]);
+    } else {
+      for (const auto& c : list) finish(c, kernel(c, none));
+    }
+  };
+  if (seg_ab)
+    run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, 1.0);
+  else
+    run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, 1.0);
+  if (seg_ba)
+    run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, -1.0);
+  else
+    run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, -1.0);
+
+  sums_a_.extract(out.a, blocks);
+  sums_b_.extract(out.b, blocks);
+  return {};
+}
+
+Expected<PairResponse> compute_pair_response(const ResponseObject& a, const ResponseObject& b,
+                                             const PairContacts& contacts,
+                                             const ResponseOptions& options) {
+  ResponseAccumulator accumulator;
+  PairResponse out;
+  if (Status s = accumulator.compute(a, b, contacts, options, out); !s) return s.error();
+  return out;
+}
+
+void add_object_forces(ObjectForces& total, const ObjectForces& part) {
+  if (part.nodes.empty()) return;
+  const bool blocks = !part.stiffness.empty() && (total.nodes.empty() || !total.stiffness.empty());
+  ObjectForces merged;
+  merged.object = total.object;
+  merged.nodes.reserve(total.nodes.size() + part.nodes.size());
+  merged.forces.reserve(merged.nodes.capacity());
+  if (blocks) merged.stiffness.reserve(merged.nodes.capacity());
+  std::size_t i = 0, j = 0;
+  const auto block_of = [](const ObjectForces& f, std::size_t k) {
+    return f.stiffness.empty() ? Mat3::Zero().eval() : f.stiffness[k];
+  };
+  while (i < total.nodes.size() || j < part.nodes.size()) {
+    const bool take_total =
+        j == part.nodes.size() || (i < total.nodes.size() && total.nodes[i] < part.nodes[j]);
+    const bool take_part =
+        i == total.nodes.size() || (j < part.nodes.size() && part.nodes[j] < total.nodes[i]);
+    if (take_total) {
+      merged.nodes.push_back(total.nodes[i]);
+      merged.forces.push_back(total.forces[i]);
+      if (blocks) merged.stiffness.push_back(block_of(total, i));
+      ++i;
+    } else if (take_part) {
+      merged.nodes.push_back(part.nodes[j]);
+      merged.forces.push_back(part.forces[j]);
+      if (blocks) merged.stiffness.push_back(part.stiffness[j]);
+      ++j;
+    } else {  // same node
+      merged.nodes.push_back(total.nodes[i]);
+      merged.forces.push_back(total.forces[i] + part.forces[j]);
+      if (blocks) merged.stiffness.push_back(block_of(total, i) + part.stiffness[j]);
+      ++i;
+      ++j;
+    }
+  }
+  total = std::move(merged);
+}
+
+std::size_t cap_object_forces(ObjectForces& forces, double max_force) {
+  if (!(max_force > 0.0)) return 0;
+  std::size_t capped = 0;
+  for (std::size_t i = 0; i < forces.forces.size(); ++i) {
+    Vec3& f = forces.forces[i];
+    const double norm = f.norm();
+    if (!(norm > max_force)) continue;
+    const double scale = max_force / norm;
+    const Vec3 unit = f / norm;
+    f = max_force * unit;
+    if (i < forces.stiffness.size())
+      forces.stiffness[i] =
+          (scale * (Mat3::Identity() - unit * unit.transpose()) * forces.stiffness[i]).eval();
+    ++capped;
+  }
+  return capped;
+}
+
+}  // namespace tc

@@ -1,0 +1,124 @@
+// Penalty response of object pairs (paper Section 5): turns detection's contacts and the
+// objects' depth maps into per-node forces (and optional 3x3 stiffness blocks) on both
+// objects, summed in a fixed order so the output is bit-identical whatever the thread
+// count. Derivations and decisions: docs/RESPONSE.md.
+//
+//   compute_pair_response()   one-off: one pair -> sparse forces on A and on B
+//   ResponseAccumulator       the same, keeping its buffers across pairs and frames
+//   add_object_forces()       sums one pair's forces into an object's total (sorted merge)
+//   cap_object_forces()       the per-node force cap (ObjectParams::max_force)
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/common/result.hpp"
+#include "core/detect/contacts.hpp"
+#include "core/response/penalty.hpp"
+#include "core/scene/scene.hpp"
+
+namespace tc {
+
+/// Counts of one or more pair responses.
+struct ResponseStats {
+  std::size_t point_contacts = 0;      ///< point contacts that produced a force
+  std::size_t segment_contacts = 0;    ///< (edge, tet) pieces that produced a force
+  std::size_t inactive = 0;            ///< contacts with no force (zero depth, separating)
+  std::size_t skipped = 0;             ///< contacts skipped for non-finite input
+  std::size_t inverted = 0;            ///< contacts in inverted tets (processed)
+  std::size_t fallback_own_face = 0;   ///< direction from the tet's own boundary face
+  std::size_t fallback_ring_face = 0;  ///< ... from a boundary face of a neighbouring tet
+  std::size_t fallback_pair = 0;       ///< ... from the pair's contact centres
+  std::size_t fallback_axis = 0;       ///< ... +z
+  double max_depth = 0.0;              ///< deepest penetration of an active contact, m
+
+  void add(const ResponseStats& other);
+};
+
+/// The response of one pair (A, B).
+struct PairResponse {
+  ObjectForces a;  ///< forces on A's nodes, sorted by node (object name: the caller's)
+  ObjectForces b;  ///< forces on B's nodes
+  ResponseKind used_a_in_b = ResponseKind::kPoint;  ///< kPoint or kSegment (A's features in B)
+  ResponseKind used_b_in_a = ResponseKind::kPoint;  ///< kPoint or kSegment (B's features in A)
+  ResponseStats stats;
+};
+
+/// What kAuto measures for the features of X entering Y.
+struct ContactDensity {
+  double rms_edge = 0.0;        ///< RMS edge length of X's contact tets (6 per tet), m
+  double contact_extent = 0.0;  ///< diagonal of bbox(X's contact tets) & bbox(Y's), m
+};
+
+/// Measures ContactDensity for X entering Y.
+///
+/// @param[in] x, y              the objects (positions and tets are read).
+/// @param[in] marked_x, marked_y  contact tets of X and of Y (PairContacts::marked_*),
+///                              indices into x.tets / y.tets.
+ContactDensity measure_contact_density(const ResponseObject& x, std::span<const Index> marked_x,
+                                       const ResponseObject& y, std::span<const Index> marked_y);
+
+/// The paper picks the response "with respect to the mesh density": kPoint and
+/// kSegment are returned as asked; kAuto gives kSegment when X's mesh is coarse
+/// relative to the contact, rms_edge > threshold * contact_extent, else kPoint.
+ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
+                                  double threshold);
+
+/// Options of a pair from the two objects' parameters: the kind asked by either object
+/// (an explicit kind beats kAuto, kSegment beats kPoint), the smaller stiffness (the
+/// softer object sets the contact), the larger damping. max_force stays per object
+/// (cap_object_forces). The other fields keep their defaults.
+ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b);
+
+/// Computes and reuses buffers for pair responses. Not thread-safe: one per thread.
+class ResponseAccumulator {
+ public:
+  /// The response of the pair (A, B) to its contacts.
+  ///
+  /// Forces on A: pushes of A's nodes/edges out of B and reactions of B's nodes/edges
+  /// inside A; the same for B. A pair without overlap costs nothing. Contacts are
+  /// processed A-in-B points or segments first, then B-in-A, each in list order.
+  ///
+  /// @param[in]  a, b      the objects; positions 3 x n, metres; depth n values, metres.
+  /// @param[in]  contacts  detection output for (A, B); lists sorted as documented there.
+  /// @param[in]  options   response settings (validated: finite, non-negative).
+  /// @param[out] out       overwritten (its vectors keep their capacity; object names are
+  ///                       left as they are); blocks present iff stiffness_mode != kNone.
+  /// @return kInvalidArgument naming the array or the contact at fault (sizes that do
+  ///         not match, indices out of range, lambda outside [0, 1]); out is then empty.
+  Status compute(const ResponseObject& a, const ResponseObject& b, const PairContacts& contacts,
+                 const ResponseOptions& options, PairResponse& out);
+
+ private:
+  struct NodeSums {
+    std::vector<Eigen::Vector3d> force;
+    std::vector<Eigen::Matrix3d> stiffness;
+    std::vector<std::uint8_t> used;
+    std::vector<Index> touched;
+    void prepare(Index n, bool blocks);
+    void add(Index node, const Eigen::Vector3d& f, const Eigen::Matrix3d* k);
+    void extract(ObjectForces& out, bool blocks);
+  };
+  NodeSums sums_a_;
+  NodeSums sums_b_;
+  std::vector<ContactResult> results_;  ///< per-contact results of the parallel path
+};
+
+/// One-off form of ResponseAccumulator::compute.
+Expected<PairResponse> compute_pair_response(const ResponseObject& a, const ResponseObject& b,
+                                             const PairContacts& contacts,
+                                             const ResponseOptions& options);
+
+/// total += part, node by node (sorted merge; part's nodes sorted and unique). Blocks
+/// are summed when both carry them; a total without blocks takes none.
+void add_object_forces(ObjectForces& total, const ObjectForces& part);
+
+/// Caps each node's force magnitude at max_force (N; <= 0: no cap). A capped force is
+/// scaled to the cap and its block K becomes (max_force / |f|) (I - f^ f^T) K, the
+/// derivative of the capped force. A capped node breaks the zero-sum of its contacts.
+/// @return the number of capped nodes.
+std::size_t cap_object_forces(ObjectForces& forces, double max_force);
+
+}  // namespace tc
