@@ -371,6 +371,13 @@ std::unique_ptr<Client> Client::connect(const Options& options) {
   return client;
 }
 
+std::unique_ptr<Client> Client::connect(std::uint32_t domain, const std::string& scene) {
+  Options o;
+  o.domain = domain;
+  o.scene = scene;
+  return connect(o);
+}
+
 bool Client::wait_for_service(std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
   return m.wait_until(Clock::now() + timeout, [&] {

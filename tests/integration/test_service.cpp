@@ -352,7 +352,8 @@ TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
   EXPECT_EQ(forces->objects.size(), 1u);
   // A client that goes away takes its objects with it.
   {
-    auto other = connect("remove");
+    auto other = Client::connect(domain_, "remove");
+    ASSERT_TRUE(other->wait_for_service(10s));
     other->register_object("c", box_mesh(1, {4, 4, 4}, {5, 5, 5}), {});
     ASSERT_TRUE(other->wait_registered("c", 10s).ok);
   }

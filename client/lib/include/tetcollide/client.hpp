@@ -1,6 +1,6 @@
 // libtetcollide_client: the C++ API a simulator uses to talk to tetcollided over DDS.
 //
-//   auto client = tc::client::Client::connect({.domain = 0, .scene = "surgery"});
+//   auto client = tc::client::Client::connect(0, "surgery");   // domain, scene
 //   client->wait_for_service(std::chrono::seconds(5));
 //   client->register_object("liver", mesh, params);           // topology, version 1
 //   client->wait_registered("liver", std::chrono::seconds(5));
@@ -147,6 +147,8 @@ class TC_CLIENT_API Client {
  public:
   /// Creates the participant, writers and readers. Throws ClientError.
   static std::unique_ptr<Client> connect(const Options& options);
+  /// Same, with the default options for everything but the domain and the scene.
+  static std::unique_ptr<Client> connect(std::uint32_t domain, const std::string& scene);
   ~Client();
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
