@@ -7,6 +7,7 @@
 #include <csignal>
 #include <fstream>
 #include <map>
+#include <set>
 #include <thread>
 
 #include "daemon_process.hpp"
@@ -412,6 +413,62 @@ TEST(DaemonCommandLine, UsageAndConfigurationErrors) {
   r = run_program({daemon, "--version"}, 20s);
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("tetcollided 0.1.0"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tc::itest
+
+namespace tc::itest {
+namespace {
+
+// Several daemons share one domain: scene patterns split the scenes between them and a
+// partition separates a third; each scene is served by exactly one daemon.
+TEST(SharedLoad, ScenePatternsAndPartitionsSplitTheScenes) {
+  using namespace std::chrono_literals;
+  const std::uint32_t domain = private_domain();
+  const auto dir = make_temp_dir("itest-shared");
+  const auto make_dir = [&](const char* name) {
+    std::filesystem::create_directories(dir / name);
+    return dir / name;
+  };
+  DaemonProcess a(make_dir("a"), domain,
+                  "version: 1\ndds:\n  service_id: svc-a\n  scenes: [\"a-*\"]\n");
+  DaemonProcess b(make_dir("b"), domain,
+                  "version: 1\ndds:\n  service_id: svc-b\n  scenes: [\"b-*\"]\n");
+  DaemonProcess lab(make_dir("lab"), domain,
+                    "version: 1\ndds:\n  service_id: svc-lab\n  partition: lab\n");
+  ASSERT_TRUE(a.start()) << a.log_text();
+  ASSERT_TRUE(b.start()) << b.log_text();
+  ASSERT_TRUE(lab.start()) << lab.log_text();
+
+  const auto serve = [&](const std::string& scene, const std::string& partition) {
+    client::Options o;
+    o.domain = domain;
+    o.scene = scene;
+    o.partition = partition;
+    auto c = client::Client::connect(o);
+    EXPECT_TRUE(c->wait_for_service(10s));
+    c->register_object("box", box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+    const auto r = c->wait_registered("box", partition.empty() && scene[0] == 'c' ? 1s : 10s);
+    std::set<std::string> registrars;
+    for (const auto& e : c->take_status_events())
+      if (e.kind == client::StatusEvent::Kind::kRegistered && e.scene == scene)
+        registrars.insert(e.service_id);
+    return std::make_pair(r.ok, registrars);
+  };
+  const auto [a_ok, a_by] = serve("a-1", "");
+  EXPECT_TRUE(a_ok);
+  EXPECT_EQ(a_by, (std::set<std::string>{"svc-a"}));
+  const auto [b_ok, b_by] = serve("b-7", "");
+  EXPECT_TRUE(b_ok);
+  EXPECT_EQ(b_by, (std::set<std::string>{"svc-b"}));
+  const auto [lab_ok, lab_by] = serve("c-1", "lab");
+  EXPECT_TRUE(lab_ok);
+  EXPECT_EQ(lab_by, (std::set<std::string>{"svc-lab"}));
+  const auto [c_ok, c_by] = serve("c-1", "");  // no daemon serves c-* in the default partition
+  EXPECT_FALSE(c_ok);
+  EXPECT_TRUE(c_by.empty());
   std::filesystem::remove_all(dir);
 }
 
