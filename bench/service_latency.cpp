@@ -1,0 +1,375 @@
+// Service benchmark: the real tetcollided over DDS on this host.
+//
+//   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--json]
+//   service_latency --large [--daemon PATH] [--json]
+//
+// Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting in
+// data/meshes/box.msh, the box static) is registered, then the torus' states are
+// published open-loop at --rate (default 1000 Hz) for --frames frames (default 5000,
+// after 200 warm-up frames). For each frame it measures state published -> forces
+// received (client side) and the pipeline's compute time (FrameStats.compute_ms), and
+// reports p50/p99 of both and of their difference (the service's overhead).
+//
+// Large mode: two 303,918-tet structured boxes (37^3 cells x 6 tets) are registered one
+// after the other; it reports each one's registration time (register_object -> the
+// service's REGISTERED status) and the daemon's resident memory before and after.
+//
+// With --daemon the program starts that daemon on a private domain (loopback Cyclone
+// config) and stops it at the end; otherwise it uses a running one on --domain.
+#include <dds/dds.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "core/io/mesh_io.hpp"
+#include "protocol.hpp"
+#include "test_meshes.hpp"
+#include "tetcollide/client.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto k = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, k == 0 ? 0 : k - 1)];
+}
+
+tc::client::Mesh to_client(const tc::TetMesh& m, const Eigen::Vector3d& offset) {
+  tc::client::Mesh out;
+  out.node_ids = m.node_ids;
+  out.rest_positions.resize(static_cast<std::size_t>(3 * m.num_nodes()));
+  for (tc::Index i = 0; i < m.num_nodes(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out.rest_positions[static_cast<std::size_t>(3 * i + c)] = m.positions(c, i) + offset[c];
+  for (const auto& t : m.tets) out.tets.insert(out.tets.end(), t.begin(), t.end());
+  return out;
+}
+
+/// A daemon started by the benchmark.
+struct Daemon {
+  pid_t pid = -1;
+  ~Daemon() {
+    if (pid > 0) {
+      kill(pid, SIGTERM);
+      int status = 0;
+      waitpid(pid, &status, 0);
+    }
+  }
+  bool start(const std::string& path, std::uint32_t domain, const std::string& config) {
+    const pid_t parent = getpid();
+    pid = fork();
+    if (pid < 0) return false;
+    if (pid == 0) {
+      prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (getppid() != parent) _exit(127);
+      const int null = open("/dev/null", O_WRONLY);
+      dup2(null, STDOUT_FILENO);
+      const std::string d = std::to_string(domain);
+      execl(path.c_str(), path.c_str(), "--config", config.c_str(), "--domain", d.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    return true;
+  }
+  [[nodiscard]] double rss_mb() const {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return 0.0;
+  }
+};
+
+/// FrameStats.compute_ms per frame of one scene, read on its own participant.
+class StatsReader {
+ public:
+  StatsReader(std::uint32_t domain, std::string scene) : scene_(std::move(scene)) {
+    pp_ = dds_create_participant(domain, nullptr, nullptr);
+    if (pp_ < 0)
+      throw std::runtime_error("dds_create_participant: " + tc::protocol::dds_error(pp_));
+    auto qos = tc::protocol::topic_qos(tc::protocol::Topic::kStats);
+    const dds_entity_t t =
+        dds_create_topic(pp_, tc::protocol::topic_descriptor(tc::protocol::Topic::kStats),
+                         tc::protocol::topic_name(tc::protocol::Topic::kStats), qos.get(), nullptr);
+    if (t < 0) throw std::runtime_error("dds_create_topic: " + tc::protocol::dds_error(t));
+    dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, 100000);
+    reader_ = dds_create_reader(pp_, t, qos.get(), nullptr);
+    if (reader_ < 0)
+      throw std::runtime_error("dds_create_reader: " + tc::protocol::dds_error(reader_));
+  }
+  ~StatsReader() { dds_delete(pp_); }
+  /// Takes everything available into compute / queue maps.
+  void drain() {
+    std::array<void*, 256> samples{};
+    std::array<dds_sample_info_t, 256> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n = dds_take(reader_, samples.data(), infos.data(), 256, 256);
+      if (n < 0) throw std::runtime_error("dds_take: " + tc::protocol::dds_error(n));
+      for (dds_return_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        const auto* s = static_cast<const tetcollide_FrameStats*>(samples[i]);
+        if (tc::protocol::bounded_view(s->scene) != scene_) continue;
+        compute_ms[s->frame] = s->compute_ms;
+        queue_ms[s->frame] = s->queue_ms;
+        publish_ms[s->frame] = s->publish_ms;
+        dropped = s->dropped_frames;
+      }
+      if (const dds_return_t rc = dds_return_loan(reader_, samples.data(), n); rc < 0)
+        throw std::runtime_error("dds_return_loan: " + tc::protocol::dds_error(rc));
+      if (n < 256) return;
+    }
+  }
+  std::map<std::int64_t, double> compute_ms;
+  std::map<std::int64_t, double> queue_ms;    ///< frame dispatched -> pipeline started
+  std::map<std::int64_t, double> publish_ms;  ///< forces written
+  std::uint64_t dropped = 0;
+
+ private:
+  std::string scene_;
+  dds_entity_t pp_ = 0;
+  dds_entity_t reader_ = 0;
+};
+
+int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
+  const std::string meshes = std::string(TC_SOURCE_DIR) + "/data/meshes/";
+  auto torus = tc::read_mesh(meshes + "torus.msh");
+  auto box = tc::read_mesh(meshes + "box.msh");
+  if (!torus || !box) {
+    std::fprintf(stderr, "cannot read the meshes: %s\n",
+                 (!torus ? torus.error() : box.error()).message.c_str());
+    return 1;
+  }
+  // The box (1 x 1 x 0.3, centred) is the static floor; the torus (major radius 0.3,
+  // minor 0.1, axis z) rests on it, 3 cm deep, and bobs by +-1 cm.
+  const auto torus_mesh = to_client(*torus, {0.0, 0.0, 0.15 + 0.1 - 0.03});
+  const auto box_mesh = to_client(*box, {0.0, 0.0, 0.0});
+  const std::string scene = "torus_in_box";
+  StatsReader stats(domain, scene);
+  tc::client::Options o;
+  o.domain = domain;
+  o.scene = scene;
+  auto c = tc::client::Client::connect(o);
+  if (!c->wait_for_service(20s)) {
+    std::fprintf(stderr, "no service on domain %u\n", domain);
+    return 1;
+  }
+  tc::client::ObjectParams floor;
+  floor.is_static = true;
+  c->register_object("box", box_mesh, floor);
+  c->register_object("torus", torus_mesh, {});
+  for (const char* obj : {"box", "torus"}) {
+    const auto r = c->wait_registered(obj, 30s);
+    if (!r.ok) {
+      std::fprintf(stderr, "%s not registered: %s\n", obj, r.message.c_str());
+      return 1;
+    }
+  }
+
+  std::mutex mutex;
+  std::map<std::int64_t, Clock::time_point> sent;
+  std::map<std::int64_t, Clock::time_point> received;
+  std::map<std::int64_t, std::size_t> force_nodes;
+  c->set_forces_callback([&](const tc::client::FrameForces& f) {
+    const auto now = Clock::now();
+    std::lock_guard lock(mutex);
+    received.emplace(f.frame, now);
+    std::size_t n = 0;
+    for (const auto& obj : f.objects) n += obj.nodes.size();
+    force_nodes[f.frame] = n;
+  });
+  const int warmup = 200;
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+  std::vector<double> positions = torus_mesh.rest_positions;
+  auto next = Clock::now();
+  for (int f = 0; f < warmup + frames; ++f) {
+    next += period;
+    std::this_thread::sleep_until(next);
+    const double dz = 0.01 * std::sin(2.0 * M_PI * static_cast<double>(f) / 500.0);
+    for (std::size_t i = 2; i < positions.size(); i += 3)
+      positions[i] = torus_mesh.rest_positions[i] + dz;
+    const auto t = Clock::now();
+    {
+      std::lock_guard lock(mutex);
+      sent[f] = t;
+    }
+    c->publish_states(f, {{"torus", positions}});
+  }
+  // Let the last answers arrive.
+  const auto deadline = Clock::now() + 5s;
+  while (Clock::now() < deadline) {
+    {
+      std::lock_guard lock(mutex);
+      if (received.count(warmup + frames - 1) != 0) break;
+    }
+    std::this_thread::sleep_for(1ms);
+  }
+  c->set_forces_callback(nullptr);
+  stats.drain();
+
+  std::vector<double> latency, compute, overhead, queue, publish;
+  std::size_t answered = 0, with_forces = 0;
+  for (int f = warmup; f < warmup + frames; ++f) {
+    const auto r = received.find(f);
+    if (r == received.end()) continue;
+    ++answered;
+    with_forces += force_nodes[f] > 0 ? 1 : 0;
+    const double l = std::chrono::duration<double, std::milli>(r->second - sent[f]).count();
+    latency.push_back(l);
+    const auto cm = stats.compute_ms.find(f);
+    if (cm != stats.compute_ms.end()) {
+      compute.push_back(cm->second);
+      overhead.push_back(l - cm->second);
+      queue.push_back(stats.queue_ms[f]);
+      publish.push_back(stats.publish_ms[f]);
+    }
+  }
+  const nlohmann::json out{{"mode", "latency"},
+                           {"scene", "torus_in_box"},
+                           {"torus_nodes", torus->num_nodes()},
+                           {"torus_tets", torus->num_tets()},
+                           {"box_nodes", box->num_nodes()},
+                           {"box_tets", box->num_tets()},
+                           {"rate_hz", rate},
+                           {"frames", frames},
+                           {"answered", answered},
+                           {"frames_with_forces", with_forces},
+                           {"dropped_frames", stats.dropped},
+                           {"latency_ms_p50", percentile(latency, 0.5)},
+                           {"latency_ms_p99", percentile(latency, 0.99)},
+                           {"compute_ms_p50", percentile(compute, 0.5)},
+                           {"compute_ms_p99", percentile(compute, 0.99)},
+                           {"overhead_ms_p50", percentile(overhead, 0.5)},
+                           {"overhead_ms_p99", percentile(overhead, 0.99)},
+                           {"queue_ms_p50", percentile(queue, 0.5)},
+                           {"publish_ms_p50", percentile(publish, 0.5)}};
+  if (json) {
+    std::printf("%s\n", out.dump(2).c_str());
+  } else {
+    std::printf(
+        "torus-in-box (%d + %d tets) at %.0f Hz, %d frames: %zu answered, %zu with forces\n",
+        torus->num_tets(), box->num_tets(), rate, frames, answered, with_forces);
+    std::printf("latency (state published -> forces received): p50 %.3f ms, p99 %.3f ms\n",
+                out["latency_ms_p50"].get<double>(), out["latency_ms_p99"].get<double>());
+    std::printf("compute (FrameStats.compute_ms):              p50 %.3f ms, p99 %.3f ms\n",
+                out["compute_ms_p50"].get<double>(), out["compute_ms_p99"].get<double>());
+    std::printf("overhead (latency - compute, per frame):      p50 %.3f ms, p99 %.3f ms\n",
+                out["overhead_ms_p50"].get<double>(), out["overhead_ms_p99"].get<double>());
+    std::printf("in the service: queue p50 %.3f ms, publish p50 %.3f ms\n",
+                out["queue_ms_p50"].get<double>(), out["publish_ms_p50"].get<double>());
+  }
+  return answered == static_cast<std::size_t>(frames) ? 0 : 1;
+}
+
+int run_large(std::uint32_t domain, const Daemon* daemon, bool json) {
+  const int n = 37;  // 37^3 cubes x 6 tets = 303,918 tets, 38^3 = 54,872 nodes
+  tc::client::Options o;
+  o.domain = domain;
+  o.scene = "large";
+  auto c = tc::client::Client::connect(o);
+  if (!c->wait_for_service(20s)) {
+    std::fprintf(stderr, "no service on domain %u\n", domain);
+    return 1;
+  }
+  const double rss_before = daemon != nullptr ? daemon->rss_mb() : 0.0;
+  nlohmann::json objects = nlohmann::json::array();
+  for (int k = 0; k < 2; ++k) {
+    const tc::TetMesh m =
+        tc::test::structured_box(n, n, n, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
+    const auto mesh = to_client(m, {0.9 * k, 0.0, 0.0});
+    const std::string name = "large_" + std::to_string(k);
+    const auto t0 = Clock::now();
+    c->register_object(name, mesh, {});
+    const auto r = c->wait_registered(name, 60s);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (!r.ok) {
+      std::fprintf(stderr, "%s not registered: %s\n", name.c_str(), r.message.c_str());
+      return 1;
+    }
+    objects.push_back({{"object", name},
+                       {"tets", m.num_tets()},
+                       {"nodes", m.num_nodes()},
+                       {"register_ms", ms},
+                       {"service_message", r.message}});
+  }
+  // One frame with both, so the per-frame buffers exist too.
+  const tc::TetMesh m =
+      tc::test::structured_box(n, n, n, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
+  const auto m0 = to_client(m, {0.0, 0.0, 0.0});
+  const auto m1 = to_client(m, {0.9, 0.0, 0.0});
+  c->publish_states(0, {{"large_0", m0.rest_positions}, {"large_1", m1.rest_positions}});
+  const auto f = c->wait_forces(0, 120s);
+  const double rss_after = daemon != nullptr ? daemon->rss_mb() : 0.0;
+  const nlohmann::json out{{"mode", "large"},
+                           {"objects", objects},
+                           {"first_frame_answered", f.has_value()},
+                           {"daemon_rss_mb_before", rss_before},
+                           {"daemon_rss_mb_after", rss_after}};
+  if (json) {
+    std::printf("%s\n", out.dump(2).c_str());
+  } else {
+    for (const auto& obj : objects)
+      std::printf("%s: %d tets, %d nodes registered in %.1f ms\n",
+                  obj["object"].get<std::string>().c_str(), obj["tets"].get<int>(),
+                  obj["nodes"].get<int>(), obj["register_ms"].get<double>());
+    std::printf("first frame answered: %s\n", f ? "yes" : "no");
+    std::printf("daemon RSS: %.1f MB before, %.1f MB with both objects\n", rss_before, rss_after);
+  }
+  return f ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"tetcollided latency and memory benchmark"};
+  std::string daemon_path;
+  std::uint32_t domain = 0;
+  int frames = 5000;
+  double rate = 1000.0;
+  bool large = false;
+  bool json = false;
+  app.add_option("--daemon", daemon_path, "Start this tetcollided on a private domain");
+  app.add_option("--domain", domain, "Domain of a running service (without --daemon)");
+  app.add_option("--frames", frames, "Measured frames (after 200 warm-up frames)");
+  app.add_option("--rate", rate, "State publication rate, Hz");
+  app.add_flag("--large", large, "Register two 300k-tet objects; time and memory");
+  app.add_flag("--json", json, "JSON output");
+  CLI11_PARSE(app, argc, argv);
+  if (std::getenv("CYCLONEDDS_URI") == nullptr)
+    setenv("CYCLONEDDS_URI",
+           ("file://" + std::string(TC_SOURCE_DIR) + "/config/cyclonedds.xml").c_str(), 1);
+  Daemon daemon;
+  if (!daemon_path.empty()) {
+    domain = 100 + static_cast<std::uint32_t>(getpid()) % 100;
+    const std::string config = "/tmp/tc-bench-" + std::to_string(getpid()) + ".yaml";
+    std::ofstream(config) << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+    if (!daemon.start(daemon_path, domain, config)) return 1;
+  }
+  try {
+    const int rc = large ? run_large(domain, daemon_path.empty() ? nullptr : &daemon, json)
+                         : run_latency(domain, frames, rate, json);
+    return rc;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}

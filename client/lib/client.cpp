@@ -1,0 +1,571 @@
+#include "tetcollide/client.hpp"
+
+#include <dds/dds.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include "protocol.hpp"
+#include "tetcollide.h"
+
+namespace tc::client {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr std::size_t kKeptFrames = 256;   // answered frames remembered
+constexpr std::size_t kKeptEvents = 4096;  // status events kept until taken
+constexpr std::uint32_t kTakeBatch = 64;
+
+[[noreturn]] void throw_dds(const std::string& call, dds_return_t rc) {
+  throw ClientError("tetcollide client: " + call + ": " + protocol::dds_error(rc));
+}
+
+dds_entity_t check(dds_entity_t e, const std::string& call) {
+  if (e < 0) throw_dds(call, e);
+  return e;
+}
+
+void check_rc(dds_return_t rc, const std::string& call) {
+  if (rc < 0) throw_dds(call, rc);
+}
+
+template <std::size_t N>
+void copy_name(char (&field)[N], const std::string& text, const char* what) {
+  if (!protocol::copy_bounded(field, text))
+    throw std::invalid_argument(std::string("tetcollide client: ") + what + " '" + text +
+                                "' is longer than " + std::to_string(N - 1) + " bytes");
+}
+
+template <typename Seq, typename T>
+void borrow_const(Seq& seq, const T* data, std::size_t n) {
+  protocol::borrow(seq, const_cast<T*>(data), n);
+}
+
+}  // namespace
+
+const char* status_name(std::int32_t code) noexcept {
+  return protocol::status_name(code).data();
+}
+
+const ObjectForces* FrameForces::find(const std::string& object) const {
+  for (const auto& o : objects)
+    if (o.object == object) return &o;
+  return nullptr;
+}
+
+bool FrameForces::ok() const {
+  return std::all_of(objects.begin(), objects.end(),
+                     [](const ObjectForces& o) { return o.status == 0; });
+}
+
+struct Client::Impl {
+  Options options;
+  dds_entity_t domain = 0;
+  dds_entity_t participant = 0;
+  dds_entity_t topology_writer = 0;
+  dds_entity_t state_writer = 0;
+  dds_entity_t forces_reader = 0;
+  dds_entity_t status_reader = 0;
+  dds_entity_t waitset = 0;
+  dds_entity_t wakeup = 0;
+
+  std::mutex pump_mutex;  // one thread reads DDS at a time
+  std::mutex mutex;       // everything below
+  std::condition_variable changed;
+
+  std::map<std::string, std::uint32_t> versions;                        // own objects
+  std::map<std::int64_t, std::vector<std::string>> sent;                // frame -> objects
+  std::map<std::int64_t, std::map<std::string, ObjectForces>> answers;  // frame -> answers
+  std::set<std::int64_t> delivered;                                     // callback done
+  std::map<std::pair<std::string, std::uint32_t>, Registration> registrations;
+  std::map<std::string, StatusEvent::State> services;  // alive services
+  std::vector<StatusEvent> events;
+
+  // The last published frame, kept for re-sending (only when resend_after > 0).
+  struct Kept {
+    std::string object;
+    std::vector<double> positions;
+    std::vector<double> velocities;
+    std::uint32_t version;
+  };
+  std::int64_t kept_frame = -1;
+  std::vector<Kept> kept;
+
+  std::function<void(const FrameForces&)> callback;
+  std::thread callback_thread;
+  std::atomic<bool> callback_stop{false};
+
+  ~Impl() {
+    stop_callback_thread();
+    if (participant > 0) dds_delete(participant);  // deletes every child entity
+    if (domain > 0) dds_delete(domain);
+  }
+
+  void stop_callback_thread() {
+    if (!callback_thread.joinable()) return;
+    callback_stop = true;
+    if (wakeup > 0) dds_set_guardcondition(wakeup, true);
+    callback_thread.join();
+    callback_stop = false;
+  }
+
+  // --- frame bookkeeping (mutex held) ---
+
+  [[nodiscard]] std::vector<std::string> expected_for(std::int64_t frame) const {
+    const auto it = sent.find(frame);
+    if (it != sent.end()) return it->second;
+    std::vector<std::string> all;
+    for (const auto& [name, v] : versions) all.push_back(name);
+    return all;
+  }
+
+  [[nodiscard]] bool complete(std::int64_t frame) const {
+    const auto it = answers.find(frame);
+    if (it == answers.end()) return false;
+    const auto expected = expected_for(frame);
+    if (expected.empty()) return false;
+    return std::all_of(expected.begin(), expected.end(),
+                       [&](const std::string& o) { return it->second.count(o) != 0; });
+  }
+
+  /// The first complete frame >= `frame`, if any.
+  [[nodiscard]] std::optional<std::int64_t> answered_from(std::int64_t frame) const {
+    for (auto it = answers.lower_bound(frame); it != answers.end(); ++it)
+      if (complete(it->first)) return it->first;
+    return std::nullopt;
+  }
+
+  [[nodiscard]] FrameForces collect(std::int64_t frame) const {
+    FrameForces out;
+    out.frame = frame;
+    const auto it = answers.find(frame);
+    if (it != answers.end())
+      for (const auto& [name, f] : it->second) out.objects.push_back(f);
+    return out;
+  }
+
+  void trim() {
+    while (answers.size() > kKeptFrames) answers.erase(answers.begin());
+    while (sent.size() > kKeptFrames) sent.erase(sent.begin());
+    while (delivered.size() > kKeptFrames) delivered.erase(delivered.begin());
+    if (events.size() > kKeptEvents)
+      events.erase(events.begin(),
+                   events.begin() + static_cast<std::ptrdiff_t>(events.size() - kKeptEvents));
+  }
+
+  // --- reading DDS (pump_mutex held) ---
+
+  /// Waits up to `timeout` for data, then takes everything available. Returns frames
+  /// that became complete (for the callback).
+  std::vector<FrameForces> pump(std::chrono::nanoseconds timeout) {
+    const dds_return_t n = dds_waitset_wait(waitset, nullptr, 0, timeout.count());
+    if (n < 0) throw_dds("dds_waitset_wait", n);
+    check_rc(dds_set_guardcondition(wakeup, false), "dds_set_guardcondition");
+    std::vector<FrameForces> completed;
+    take_forces(completed);
+    take_status();
+    changed.notify_all();
+    return completed;
+  }
+
+  void take_forces(std::vector<FrameForces>& completed) {
+    std::array<void*, kTakeBatch> samples{};
+    std::array<dds_sample_info_t, kTakeBatch> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n =
+          dds_take(forces_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
+      if (n < 0) throw_dds("dds_take(ContactForces)", n);
+      {
+        std::lock_guard lock(mutex);
+        std::set<std::int64_t> touched;
+        for (dds_return_t i = 0; i < n; ++i) {
+          if (!infos[i].valid_data) continue;
+          const auto* s = static_cast<const tetcollide_ContactForces*>(samples[i]);
+          if (protocol::bounded_view(s->scene) != options.scene) continue;
+          std::string object(protocol::bounded_view(s->object));
+          if (versions.count(object) == 0) continue;  // another client's object
+          ObjectForces f;
+          f.object = object;
+          f.frame = s->frame;
+          f.topology_version = s->topology_version;
+          f.status = s->status;
+          f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
+          f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
+          f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
+          answers[s->frame][object] = std::move(f);
+          touched.insert(s->frame);
+        }
+        if (callback)
+          for (const auto frame : touched)
+            if (delivered.count(frame) == 0 && complete(frame)) {
+              delivered.insert(frame);
+              completed.push_back(collect(frame));
+            }
+        trim();
+      }
+      check_rc(dds_return_loan(forces_reader, samples.data(), n), "dds_return_loan");
+      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
+    }
+  }
+
+  void take_status() {
+    std::array<void*, kTakeBatch> samples{};
+    std::array<dds_sample_info_t, kTakeBatch> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n =
+          dds_take(status_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
+      if (n < 0) throw_dds("dds_take(ServiceStatus)", n);
+      {
+        std::lock_guard lock(mutex);
+        for (dds_return_t i = 0; i < n; ++i) {
+          const auto* s = static_cast<const tetcollide_ServiceStatus*>(samples[i]);
+          const std::string id(protocol::bounded_view(s->service_id));
+          if (infos[i].instance_state != DDS_IST_ALIVE) services.erase(id);
+          if (!infos[i].valid_data) continue;
+          StatusEvent e;
+          e.service_id = id;
+          e.sequence_number = s->sequence_number;
+          e.state = static_cast<StatusEvent::State>(s->state);
+          e.kind = static_cast<StatusEvent::Kind>(s->kind);
+          e.code = s->code;
+          e.scene = protocol::bounded_view(s->scene);
+          e.object = protocol::bounded_view(s->object);
+          e.topology_version = s->topology_version;
+          e.frame = s->frame;
+          e.message = protocol::bounded_view(s->message);
+          if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
+          if (e.scene == options.scene && e.topology_version != 0 && e.frame < 0 &&
+              (e.kind == StatusEvent::Kind::kRegistered || e.kind == StatusEvent::Kind::kError)) {
+            Registration& r = registrations[{e.object, e.topology_version}];
+            r.done = true;
+            r.ok = e.kind == StatusEvent::Kind::kRegistered;
+            r.code = e.code;
+            r.message = e.message;
+          }
+          events.push_back(std::move(e));
+        }
+        trim();
+      }
+      check_rc(dds_return_loan(status_reader, samples.data(), n), "dds_return_loan");
+      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
+    }
+  }
+
+  /// Reads DDS until `ready()` (evaluated with `mutex` held) or the deadline.
+  template <typename Ready>
+  bool wait_until(Clock::time_point deadline, Ready ready) {
+    for (;;) {
+      {
+        std::lock_guard lock(mutex);
+        if (ready()) return true;
+      }
+      const auto now = Clock::now();
+      if (now >= deadline) return false;
+      const auto slice = std::min<Clock::duration>(deadline - now, std::chrono::milliseconds(50));
+      if (pump_mutex.try_lock()) {
+        std::vector<FrameForces> completed;
+        try {
+          completed = pump(slice);
+        } catch (...) {
+          pump_mutex.unlock();
+          throw;
+        }
+        pump_mutex.unlock();
+        deliver(completed);
+      } else {
+        // The callback thread is reading: it notifies `changed` after each batch.
+        std::unique_lock lock(mutex);
+        changed.wait_for(lock, std::min<Clock::duration>(slice, std::chrono::milliseconds(2)),
+                         ready);
+      }
+    }
+  }
+
+  void deliver(const std::vector<FrameForces>& completed) {
+    if (completed.empty()) return;
+    std::function<void(const FrameForces&)> cb;
+    {
+      std::lock_guard lock(mutex);
+      cb = callback;
+    }
+    if (cb)
+      for (const auto& f : completed) cb(f);
+  }
+
+  void write_state(std::int64_t frame, const std::string& object, std::uint32_t version,
+                   std::span<const double> positions, std::span<const double> velocities) {
+    tetcollide_MeshState s{};
+    copy_name(s.scene, options.scene, "scene");
+    copy_name(s.object, object, "object");
+    s.frame = frame;
+    s.topology_version = version;
+    borrow_const(s.positions, positions.data(), positions.size());
+    borrow_const(s.velocities, velocities.data(), velocities.size());
+    check_rc(dds_write(state_writer, &s), "dds_write(MeshState " + object + ")");
+  }
+};
+
+Client::Client() : impl_(std::make_unique<Impl>()) {}
+Client::~Client() = default;
+
+const Options& Client::options() const {
+  return impl_->options;
+}
+
+std::unique_ptr<Client> Client::connect(const Options& options) {
+  std::unique_ptr<Client> client(new Client());
+  Impl& m = *client->impl_;
+  m.options = options;
+  {
+    tetcollide_MeshState probe{};
+    copy_name(probe.scene, options.scene, "scene");
+    if (options.scene.empty()) throw std::invalid_argument("tetcollide client: empty scene name");
+  }
+  if (!options.cyclonedds_config.empty())
+    m.domain = check(dds_create_domain(options.domain, options.cyclonedds_config.c_str()),
+                     "dds_create_domain");
+  m.participant = check(dds_create_participant(options.domain, nullptr, nullptr),
+                        "dds_create_participant(domain " + std::to_string(options.domain) + ")");
+  const auto pqos = protocol::partition_qos(options.partition);
+  const dds_entity_t publisher =
+      check(dds_create_publisher(m.participant, pqos.get(), nullptr), "dds_create_publisher");
+  const dds_entity_t subscriber =
+      check(dds_create_subscriber(m.participant, pqos.get(), nullptr), "dds_create_subscriber");
+  const auto topic = [&](protocol::Topic t) {
+    const auto qos = protocol::topic_qos(t);
+    return check(dds_create_topic(m.participant, protocol::topic_descriptor(t),
+                                  protocol::topic_name(t), qos.get(), nullptr),
+                 std::string("dds_create_topic(") + protocol::topic_name(t) + ")");
+  };
+  const auto writer = [&](protocol::Topic t) {
+    const auto qos = protocol::topic_qos(t);
+    return check(dds_create_writer(publisher, topic(t), qos.get(), nullptr),
+                 std::string("dds_create_writer(") + protocol::topic_name(t) + ")");
+  };
+  const auto reader = [&](protocol::Topic t) {
+    const auto qos = protocol::topic_qos(t);
+    return check(dds_create_reader(subscriber, topic(t), qos.get(), nullptr),
+                 std::string("dds_create_reader(") + protocol::topic_name(t) + ")");
+  };
+  m.topology_writer = writer(protocol::Topic::kTopology);
+  m.state_writer = writer(protocol::Topic::kState);
+  m.forces_reader = reader(protocol::Topic::kForces);
+  m.status_reader = reader(protocol::Topic::kStatus);
+  m.waitset = check(dds_create_waitset(m.participant), "dds_create_waitset");
+  m.wakeup = check(dds_create_guardcondition(m.participant), "dds_create_guardcondition");
+  const dds_entity_t fc = check(dds_create_readcondition(m.forces_reader, DDS_ANY_STATE),
+                                "dds_create_readcondition(ContactForces)");
+  const dds_entity_t sc = check(dds_create_readcondition(m.status_reader, DDS_ANY_STATE),
+                                "dds_create_readcondition(ServiceStatus)");
+  check_rc(dds_waitset_attach(m.waitset, fc, fc), "dds_waitset_attach");
+  check_rc(dds_waitset_attach(m.waitset, sc, sc), "dds_waitset_attach");
+  check_rc(dds_waitset_attach(m.waitset, m.wakeup, m.wakeup), "dds_waitset_attach");
+  return client;
+}
+
+std::unique_ptr<Client> Client::connect(std::uint32_t domain, const std::string& scene) {
+  Options o;
+  o.domain = domain;
+  o.scene = scene;
+  return connect(o);
+}
+
+bool Client::wait_for_service(std::chrono::milliseconds timeout) {
+  Impl& m = *impl_;
+  return m.wait_until(Clock::now() + timeout, [&] {
+    return std::any_of(m.services.begin(), m.services.end(),
+                       [](const auto& s) { return s.second == StatusEvent::State::kReady; });
+  });
+}
+
+bool Client::wait_for_readers(std::size_t count, std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  for (;;) {
+    dds_publication_matched_status_t status{};
+    check_rc(dds_get_publication_matched_status(impl_->state_writer, &status),
+             "dds_get_publication_matched_status");
+    if (status.current_count >= count) return true;
+    if (Clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+std::uint32_t Client::register_object(const std::string& object, const Mesh& mesh,
+                                      const ObjectParams& params, std::uint32_t version) {
+  Impl& m = *impl_;
+  std::uint32_t v = version;
+  {
+    std::lock_guard lock(m.mutex);
+    if (v == 0) {
+      const auto it = m.versions.find(object);
+      v = it == m.versions.end() ? 1 : it->second + 1;
+    }
+  }
+  tetcollide_MeshTopology s{};
+  copy_name(s.scene, m.options.scene, "scene");
+  copy_name(s.object, object, "object");
+  s.version = v;
+  borrow_const(s.node_ids, mesh.node_ids.data(), mesh.node_ids.size());
+  borrow_const(s.rest_positions, mesh.rest_positions.data(), mesh.rest_positions.size());
+  borrow_const(s.tets, mesh.tets.data(), mesh.tets.size());
+  s.params.stiffness = params.stiffness;
+  s.params.damping = params.damping;
+  s.params.max_force = params.max_force;
+  s.params.is_static = params.is_static;
+  s.params.depth = static_cast<tetcollide_DepthMethod>(params.depth);
+  s.params.response = static_cast<tetcollide_ResponseKind>(params.response);
+  {
+    // Known before the write so answers for it are kept as soon as they can arrive.
+    std::lock_guard lock(m.mutex);
+    m.versions[object] = v;
+    m.registrations.erase({object, v});
+  }
+  check_rc(dds_write(m.topology_writer, &s), "dds_write(MeshTopology " + object + ")");
+  return v;
+}
+
+Registration Client::wait_registered(const std::string& object, std::chrono::milliseconds timeout) {
+  Impl& m = *impl_;
+  const std::uint32_t v = version(object);
+  Registration out;
+  m.wait_until(Clock::now() + timeout, [&] {
+    const auto it = m.registrations.find({object, v});
+    if (it == m.registrations.end()) return false;
+    out = it->second;
+    return true;
+  });
+  return out;
+}
+
+void Client::remove_object(const std::string& object) {
+  Impl& m = *impl_;
+  tetcollide_MeshTopology s{};
+  copy_name(s.scene, m.options.scene, "scene");
+  copy_name(s.object, object, "object");
+  check_rc(dds_dispose(m.topology_writer, &s), "dds_dispose(MeshTopology " + object + ")");
+  check_rc(dds_unregister_instance(m.topology_writer, &s),
+           "dds_unregister_instance(MeshTopology " + object + ")");
+  std::lock_guard lock(m.mutex);
+  m.versions.erase(object);
+}
+
+std::uint32_t Client::version(const std::string& object) const {
+  std::lock_guard lock(impl_->mutex);
+  const auto it = impl_->versions.find(object);
+  return it == impl_->versions.end() ? 0 : it->second;
+}
+
+void Client::publish_states(std::int64_t frame, std::span<const ObjectState> states) {
+  Impl& m = *impl_;
+  std::vector<std::uint32_t> versions(states.size());
+  {
+    std::lock_guard lock(m.mutex);
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < states.size(); ++i) {
+      const auto it = m.versions.find(states[i].object);
+      versions[i] = states[i].topology_version != 0 ? states[i].topology_version
+                    : it == m.versions.end()        ? 0
+                                                    : it->second;
+      if (it != m.versions.end()) names.push_back(states[i].object);
+    }
+    std::sort(names.begin(), names.end());
+    names.erase(std::unique(names.begin(), names.end()), names.end());
+    // A frame published again (a restarted simulation, a re-send) starts afresh.
+    m.answers.erase(m.answers.lower_bound(frame), m.answers.end());
+    m.sent.erase(m.sent.lower_bound(frame), m.sent.end());
+    m.delivered.erase(m.delivered.lower_bound(frame), m.delivered.end());
+    m.sent[frame] = std::move(names);
+    if (m.options.resend_after.count() > 0) {
+      m.kept_frame = frame;
+      m.kept.clear();
+      for (std::size_t i = 0; i < states.size(); ++i)
+        m.kept.push_back({states[i].object,
+                          {states[i].positions.begin(), states[i].positions.end()},
+                          {states[i].velocities.begin(), states[i].velocities.end()},
+                          versions[i]});
+    }
+    m.trim();
+  }
+  for (std::size_t i = 0; i < states.size(); ++i)
+    m.write_state(frame, states[i].object, versions[i], states[i].positions, states[i].velocities);
+}
+
+std::optional<FrameForces> Client::wait_forces(std::int64_t frame,
+                                               std::chrono::milliseconds timeout) {
+  Impl& m = *impl_;
+  const auto deadline = Clock::now() + timeout;
+  std::optional<std::int64_t> answered;
+  const auto ready = [&] {
+    answered = m.answered_from(frame);
+    return answered.has_value();
+  };
+  const auto resend = m.options.resend_after;
+  for (;;) {
+    const auto slice_end =
+        resend.count() > 0 ? std::min(deadline, Clock::now() + resend) : deadline;
+    if (m.wait_until(slice_end, ready)) break;
+    if (Clock::now() >= deadline) return std::nullopt;
+    // No answer within resend_after: publish the frame's states again.
+    std::vector<Impl::Kept> again;
+    {
+      std::lock_guard lock(m.mutex);
+      if (m.kept_frame == frame) again = m.kept;
+    }
+    for (const auto& k : again)
+      m.write_state(frame, k.object, k.version, k.positions, k.velocities);
+  }
+  std::lock_guard lock(m.mutex);
+  return m.collect(*answered);
+}
+
+void Client::set_forces_callback(std::function<void(const FrameForces&)> callback) {
+  Impl& m = *impl_;
+  m.stop_callback_thread();
+  {
+    std::lock_guard lock(m.mutex);
+    m.callback = std::move(callback);
+    if (!m.callback) return;
+  }
+  m.callback_thread = std::thread([&m] {
+    while (!m.callback_stop.load()) {
+      std::vector<FrameForces> completed;
+      {
+        std::lock_guard pump_lock(m.pump_mutex);
+        try {
+          completed = m.pump(std::chrono::milliseconds(100));
+        } catch (const ClientError&) {
+          return;  // the participant is going away
+        }
+      }
+      m.deliver(completed);
+    }
+  });
+}
+
+std::vector<StatusEvent> Client::take_status_events() {
+  poll(std::chrono::milliseconds(0));
+  std::lock_guard lock(impl_->mutex);
+  std::vector<StatusEvent> out;
+  out.swap(impl_->events);
+  return out;
+}
+
+void Client::poll(std::chrono::milliseconds timeout) {
+  Impl& m = *impl_;
+  std::vector<FrameForces> completed;
+  {
+    std::lock_guard lock(m.pump_mutex);
+    completed = m.pump(timeout);
+  }
+  m.deliver(completed);
+}
+
+}  // namespace tc::client

@@ -1,0 +1,210 @@
+// libtetcollide_client: the C++ API a simulator uses to talk to tetcollided over DDS.
+//
+//   auto client = tc::client::Client::connect(0, "surgery");   // domain, scene
+//   client->wait_for_service(std::chrono::seconds(5));
+//   client->register_object("liver", mesh, params);           // topology, version 1
+//   client->wait_registered("liver", std::chrono::seconds(5));
+//   for (frame = 0;; ++frame) {
+//     client->publish_states(frame, {{"liver", positions}});  // 3n doubles, metres
+//     auto forces = client->wait_forces(frame, std::chrono::milliseconds(100));
+//   }
+//
+// Depends on Cyclone DDS and the generated protocol types only. The protocol itself is
+// documented in docs/PROTOCOL.md; this library is one implementation of its client side.
+//
+// Threading: one Client may be used from one simulation thread; wait_* calls read DDS
+// on the calling thread. A forces callback, when set, runs on a thread of the client.
+// Errors: DDS failures throw tc::client::ClientError; expected outcomes (a timeout, an
+// object the service rejected) are return values.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+// Symbols of the shared library that are part of the API; everything else is hidden.
+#if defined(__GNUC__)
+#define TC_CLIENT_API __attribute__((visibility("default")))
+#else
+#define TC_CLIENT_API
+#endif
+
+namespace tc::client {
+
+/// Thrown when a DDS call fails (the message names the call and the DDS error).
+class TC_CLIENT_API ClientError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Status codes of the protocol (ContactForces.status, ServiceStatus.code).
+enum class StatusCode : std::int32_t {
+  kOk = 0,
+  kIo = 1,
+  kParse = 2,
+  kUnsupported = 3,
+  kInvalidMesh = 4,
+  kInvalidArgument = 5,
+  kUnknownObject = 6,
+  kStaleVersion = 7,
+  kOversized = 8,
+  kInternal = 9,
+};
+
+/// Lower-case name of a status code ("ok", "invalid_mesh", ...).
+TC_CLIENT_API const char* status_name(std::int32_t code) noexcept;
+
+enum class DepthMethod { kCpfm = 0, kCffm = 1, kExact = 2 };
+enum class ResponseKind { kPoint = 0, kSegment = 1, kAuto = 2 };
+
+/// Per-object contact parameters, sent with the topology.
+struct ObjectParams {
+  double stiffness = 1e4;  ///< penalty stiffness, N/m^2
+  double damping = 0.0;    ///< N s/m per unit depth rate
+  double max_force = 0.0;  ///< cap on one node's force, N; 0 = none
+  bool is_static = false;  ///< never moves; the service does not wait for its states
+  DepthMethod depth = DepthMethod::kCpfm;
+  ResponseKind response = ResponseKind::kAuto;
+};
+
+/// A tetrahedral mesh as flat arrays.
+struct Mesh {
+  std::vector<std::int64_t> node_ids;  ///< n ids (reported back only), or empty
+  std::vector<double> rest_positions;  ///< 3n, metres, x0 y0 z0 x1 ...
+  std::vector<std::int32_t> tets;      ///< 4m 0-based node indices, positively oriented
+};
+
+/// One object's positions for a frame (views: the data is copied when published).
+struct ObjectState {
+  std::string object;
+  std::span<const double> positions;        ///< 3n, metres
+  std::span<const double> velocities = {};  ///< 3n m/s, or empty
+  std::uint32_t topology_version = 0;       ///< 0 = the version last registered
+};
+
+/// The service's answer for one object and frame.
+struct ObjectForces {
+  std::string object;
+  std::int64_t frame = 0;
+  std::uint32_t topology_version = 0;
+  std::int32_t status = 0;          ///< StatusCode; not kOk = this object's state was rejected
+  std::vector<std::int32_t> nodes;  ///< k sorted node indices
+  std::vector<double> forces;       ///< 3k, newtons
+  std::vector<double> stiffness;    ///< 9k row-major df/dx blocks (N/m), or empty
+};
+
+/// Every answer of one frame for this client's objects, sorted by object name.
+struct TC_CLIENT_API FrameForces {
+  std::int64_t frame = 0;
+  std::vector<ObjectForces> objects;
+  /// Answer for `object`, or null.
+  [[nodiscard]] const ObjectForces* find(const std::string& object) const;
+  /// True when every object's status is kOk.
+  [[nodiscard]] bool ok() const;
+};
+
+/// A ServiceStatus sample.
+struct StatusEvent {
+  enum class State { kStarting = 0, kReady = 1, kStopping = 2 };
+  enum class Kind { kHeartbeat = 0, kStateChange = 1, kRegistered = 2, kRemoved = 3, kError = 4 };
+  std::string service_id;
+  std::uint64_t sequence_number = 0;
+  State state = State::kStarting;
+  Kind kind = Kind::kHeartbeat;
+  std::int32_t code = 0;
+  std::string scene;
+  std::string object;
+  std::uint32_t topology_version = 0;
+  std::int64_t frame = -1;
+  std::string message;
+};
+
+/// Outcome of a registration as the service reported it.
+struct Registration {
+  bool done = false;      ///< false: no verdict before the timeout
+  bool ok = false;        ///< the service built the object
+  std::int32_t code = 0;  ///< StatusCode of a rejection
+  std::string message;
+};
+
+struct Options {
+  std::uint32_t domain = 0;
+  std::string scene;              ///< every object of this client lives in this scene
+  std::string partition;          ///< DDS partition, "" = default (must match the service)
+  std::string cyclonedds_config;  ///< XML or file:// for this domain; "" = CYCLONEDDS_URI
+  /// wait_forces re-publishes the frame's states when no answer came for this long
+  /// (a restarted service, a lost sample); 0 = never.
+  std::chrono::milliseconds resend_after{0};
+};
+
+class TC_CLIENT_API Client {
+ public:
+  /// Creates the participant, writers and readers. Throws ClientError.
+  static std::unique_ptr<Client> connect(const Options& options);
+  /// Same, with the default options for everything but the domain and the scene.
+  static std::unique_ptr<Client> connect(std::uint32_t domain, const std::string& scene);
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  /// Waits for a service announcing READY. False on timeout.
+  bool wait_for_service(std::chrono::milliseconds timeout);
+
+  /// Waits until at least `count` readers (services, recorders) are matched with this
+  /// client's MeshState writer, i.e. until states published now reach them. False on
+  /// timeout.
+  bool wait_for_readers(std::size_t count, std::chrono::milliseconds timeout);
+
+  /// Publishes (or, after a cut, replaces) an object's topology. `version` 0 means the
+  /// previous version + 1 (1 the first time). Returns the version sent. The sample stays
+  /// available to services that start later (transient-local), so a restarted service
+  /// gets it back without the simulator doing anything.
+  std::uint32_t register_object(const std::string& object, const Mesh& mesh,
+                                const ObjectParams& params, std::uint32_t version = 0);
+
+  /// Waits for the service's verdict on the object's current version.
+  Registration wait_registered(const std::string& object, std::chrono::milliseconds timeout);
+
+  /// Removes an object from the scene (disposes its topology instance).
+  void remove_object(const std::string& object);
+
+  /// The version last sent for an object (0 when unknown).
+  [[nodiscard]] std::uint32_t version(const std::string& object) const;
+
+  /// Publishes the objects' states of one frame (each with its current version).
+  void publish_states(std::int64_t frame, std::span<const ObjectState> states);
+  void publish_states(std::int64_t frame, std::initializer_list<ObjectState> states) {
+    publish_states(frame, std::span<const ObjectState>(states.begin(), states.size()));
+  }
+
+  /// Waits for the answer to `frame`: one ObjectForces per object published in that frame
+  /// (per registered object when this client did not publish it). When the service
+  /// skipped the frame (a newer one superseded it), the first newer complete answer is
+  /// returned instead (check FrameForces::frame). nullopt on timeout.
+  std::optional<FrameForces> wait_forces(std::int64_t frame, std::chrono::milliseconds timeout);
+
+  /// Calls `callback` with each complete answered frame, on a thread of the client,
+  /// instead of (or as well as) wait_forces. Pass nullptr to stop.
+  void set_forces_callback(std::function<void(const FrameForces&)> callback);
+
+  /// ServiceStatus samples received since the last call (all services, all scenes).
+  std::vector<StatusEvent> take_status_events();
+
+  /// Reads whatever DDS has delivered, waiting at most `timeout` for the first sample.
+  void poll(std::chrono::milliseconds timeout);
+
+  [[nodiscard]] const Options& options() const;
+
+ private:
+  Client();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace tc::client

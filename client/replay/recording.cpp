@@ -1,0 +1,301 @@
+#include "recording.hpp"
+
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+namespace tc::replay {
+namespace {
+
+using nlohmann::json;
+
+/// JSON array of doubles; non-finite values (which JSON cannot hold) become the strings
+/// "NaN", "Infinity", "-Infinity". Finite values are written in the shortest form that
+/// reads back to the same bits.
+json doubles(const std::vector<double>& values) {
+  json a = json::array();
+  for (const double v : values) {
+    if (std::isnan(v)) {
+      a.push_back("NaN");
+    } else if (std::isinf(v)) {
+      a.push_back(v > 0 ? "Infinity" : "-Infinity");
+    } else {
+      a.push_back(v);
+    }
+  }
+  return a;
+}
+
+std::vector<double> read_doubles(const json& a) {
+  std::vector<double> out;
+  out.reserve(a.size());
+  for (const auto& v : a) {
+    if (v.is_string()) {
+      const auto& s = v.get_ref<const std::string&>();
+      if (s == "NaN") {
+        out.push_back(std::numeric_limits<double>::quiet_NaN());
+      } else if (s == "Infinity") {
+        out.push_back(std::numeric_limits<double>::infinity());
+      } else if (s == "-Infinity") {
+        out.push_back(-std::numeric_limits<double>::infinity());
+      } else {
+        throw std::invalid_argument("bad number string '" + s + "'");
+      }
+    } else {
+      out.push_back(v.get<double>());
+    }
+  }
+  return out;
+}
+
+const char* depth_name(client::DepthMethod d) {
+  switch (d) {
+    case client::DepthMethod::kCffm:
+      return "cffm";
+    case client::DepthMethod::kExact:
+      return "exact";
+    case client::DepthMethod::kCpfm:
+      break;
+  }
+  return "cpfm";
+}
+
+client::DepthMethod depth_of(const std::string& s) {
+  if (s == "cpfm") return client::DepthMethod::kCpfm;
+  if (s == "cffm") return client::DepthMethod::kCffm;
+  if (s == "exact") return client::DepthMethod::kExact;
+  throw std::invalid_argument("unknown depth method '" + s + "'");
+}
+
+const char* response_name(client::ResponseKind r) {
+  switch (r) {
+    case client::ResponseKind::kPoint:
+      return "point";
+    case client::ResponseKind::kSegment:
+      return "segment";
+    case client::ResponseKind::kAuto:
+      break;
+  }
+  return "auto";
+}
+
+client::ResponseKind response_of(const std::string& s) {
+  if (s == "point") return client::ResponseKind::kPoint;
+  if (s == "segment") return client::ResponseKind::kSegment;
+  if (s == "auto") return client::ResponseKind::kAuto;
+  throw std::invalid_argument("unknown response kind '" + s + "'");
+}
+
+json encode(const TopologyRecord& r) {
+  return {{"type", "topology"},
+          {"t", r.t},
+          {"scene", r.scene},
+          {"object", r.object},
+          {"version", r.version},
+          {"node_ids", r.mesh.node_ids},
+          {"rest_positions", doubles(r.mesh.rest_positions)},
+          {"tets", r.mesh.tets},
+          {"params",
+           {{"stiffness", r.params.stiffness},
+            {"damping", r.params.damping},
+            {"max_force", r.params.max_force},
+            {"is_static", r.params.is_static},
+            {"depth", depth_name(r.params.depth)},
+            {"response", response_name(r.params.response)}}}};
+}
+
+json encode(const RemoveRecord& r) {
+  return {{"type", "remove"}, {"t", r.t}, {"scene", r.scene}, {"object", r.object}};
+}
+
+json encode(const StateRecord& r) {
+  return {{"type", "state"},
+          {"t", r.t},
+          {"scene", r.scene},
+          {"object", r.object},
+          {"frame", r.frame},
+          {"topology_version", r.topology_version},
+          {"positions", doubles(r.positions)},
+          {"velocities", doubles(r.velocities)}};
+}
+
+json encode(const ForcesRecord& r) {
+  return {{"type", "forces"},
+          {"t", r.t},
+          {"scene", r.scene},
+          {"object", r.object},
+          {"frame", r.frame},
+          {"topology_version", r.topology_version},
+          {"status", r.status},
+          {"nodes", r.nodes},
+          {"forces", doubles(r.forces)},
+          {"stiffness", doubles(r.stiffness)}};
+}
+
+json encode(const StatusRecord& r) {
+  const auto& e = r.event;
+  return {{"type", "status"},
+          {"t", r.t},
+          {"service_id", e.service_id},
+          {"sequence_number", e.sequence_number},
+          {"state", static_cast<int>(e.state)},
+          {"kind", static_cast<int>(e.kind)},
+          {"code", e.code},
+          {"scene", e.scene},
+          {"object", e.object},
+          {"topology_version", e.topology_version},
+          {"frame", e.frame},
+          {"message", e.message}};
+}
+
+Record decode(const json& j) {
+  const std::string type = j.at("type").get<std::string>();
+  const double t = j.at("t").get<double>();
+  if (type == "topology") {
+    TopologyRecord r;
+    r.t = t;
+    r.scene = j.at("scene").get<std::string>();
+    r.object = j.at("object").get<std::string>();
+    r.version = j.at("version").get<std::uint32_t>();
+    r.mesh.node_ids = j.at("node_ids").get<std::vector<std::int64_t>>();
+    r.mesh.rest_positions = read_doubles(j.at("rest_positions"));
+    r.mesh.tets = j.at("tets").get<std::vector<std::int32_t>>();
+    const json& p = j.at("params");
+    r.params.stiffness = p.at("stiffness").get<double>();
+    r.params.damping = p.at("damping").get<double>();
+    r.params.max_force = p.at("max_force").get<double>();
+    r.params.is_static = p.at("is_static").get<bool>();
+    r.params.depth = depth_of(p.at("depth").get<std::string>());
+    r.params.response = response_of(p.at("response").get<std::string>());
+    return r;
+  }
+  if (type == "remove") {
+    return RemoveRecord{t, j.at("scene").get<std::string>(), j.at("object").get<std::string>()};
+  }
+  if (type == "state") {
+    StateRecord r;
+    r.t = t;
+    r.scene = j.at("scene").get<std::string>();
+    r.object = j.at("object").get<std::string>();
+    r.frame = j.at("frame").get<std::int64_t>();
+    r.topology_version = j.at("topology_version").get<std::uint32_t>();
+    r.positions = read_doubles(j.at("positions"));
+    r.velocities = read_doubles(j.at("velocities"));
+    return r;
+  }
+  if (type == "forces") {
+    ForcesRecord r;
+    r.t = t;
+    r.scene = j.at("scene").get<std::string>();
+    r.object = j.at("object").get<std::string>();
+    r.frame = j.at("frame").get<std::int64_t>();
+    r.topology_version = j.at("topology_version").get<std::uint32_t>();
+    r.status = j.at("status").get<std::int32_t>();
+    r.nodes = j.at("nodes").get<std::vector<std::int32_t>>();
+    r.forces = read_doubles(j.at("forces"));
+    r.stiffness = read_doubles(j.at("stiffness"));
+    return r;
+  }
+  if (type == "status") {
+    StatusRecord r;
+    r.t = t;
+    auto& e = r.event;
+    e.service_id = j.at("service_id").get<std::string>();
+    e.sequence_number = j.at("sequence_number").get<std::uint64_t>();
+    e.state = static_cast<client::StatusEvent::State>(j.at("state").get<int>());
+    e.kind = static_cast<client::StatusEvent::Kind>(j.at("kind").get<int>());
+    e.code = j.at("code").get<std::int32_t>();
+    e.scene = j.at("scene").get<std::string>();
+    e.object = j.at("object").get<std::string>();
+    e.topology_version = j.at("topology_version").get<std::uint32_t>();
+    e.frame = j.at("frame").get<std::int64_t>();
+    e.message = j.at("message").get<std::string>();
+    return r;
+  }
+  throw std::invalid_argument("unknown record type '" + type + "'");
+}
+
+}  // namespace
+
+double record_time(const Record& record) {
+  return std::visit([](const auto& r) { return r.t; }, record);
+}
+
+std::string encode_record(const Record& record) {
+  return std::visit([](const auto& r) { return encode(r).dump(); }, record);
+}
+
+Expected<Record> decode_record(const std::string& line, const std::string& where) {
+  try {
+    return decode(json::parse(line));
+  } catch (const std::exception& e) {
+    return Error{ErrorCode::kParse, where + ": " + e.what()};
+  }
+}
+
+Status RecordingWriter::open(const std::filesystem::path& path, std::uint32_t domain) {
+  path_ = path;
+  out_.open(path, std::ios::binary | std::ios::trunc);
+  if (!out_) return Error{ErrorCode::kIo, path.string() + ": cannot create the recording"};
+  out_ << json{{"format", kFormatName}, {"version", kFormatVersion}}.dump() << '\n';
+  out_ << json{{"type", "info"}, {"t", 0.0}, {"domain", domain}}.dump() << '\n';
+  if (!out_) return Error{ErrorCode::kIo, path.string() + ": write error"};
+  return {};
+}
+
+Status RecordingWriter::write(const Record& record) {
+  out_ << encode_record(record) << '\n';
+  if (!out_) return Error{ErrorCode::kIo, path_.string() + ": write error"};
+  ++records_;
+  return {};
+}
+
+Status RecordingWriter::flush() {
+  out_.flush();
+  if (!out_) return Error{ErrorCode::kIo, path_.string() + ": write error"};
+  return {};
+}
+
+Status RecordingWriter::close() {
+  out_.flush();
+  const bool ok = static_cast<bool>(out_);
+  out_.close();
+  if (!ok) return Error{ErrorCode::kIo, path_.string() + ": write error"};
+  return {};
+}
+
+Expected<std::vector<Record>> read_recording(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{ErrorCode::kIo, path.string() + ": cannot open the recording"};
+  std::string line;
+  if (!std::getline(in, line))
+    return Error{ErrorCode::kParse, path.string() + ":1: empty file, expected the header"};
+  try {
+    const json header = json::parse(line);
+    if (!header.is_object() || header.value("format", std::string()) != kFormatName)
+      return Error{ErrorCode::kParse, path.string() +
+                                          ":1: not a tetcollide recording (no \"format\": \"" +
+                                          kFormatName + "\" header)"};
+    if (header.value("version", -1) != kFormatVersion)
+      return Error{ErrorCode::kUnsupported, path.string() + ":1: recording version " +
+                                                header["version"].dump() +
+                                                " is not supported (this build reads version 1)"};
+  } catch (const json::exception& e) {
+    return Error{ErrorCode::kParse, path.string() + ":1: " + e.what()};
+  }
+  std::vector<Record> records;
+  std::size_t number = 1;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty()) continue;
+    const std::string where = path.string() + ":" + std::to_string(number);
+    // "info" lines describe the session (domain, ...); they carry no sample.
+    if (line.find("\"type\":\"info\"") != std::string::npos) continue;
+    auto r = decode_record(line, where);
+    if (!r) return r.error();
+    records.push_back(std::move(*r));
+  }
+  return records;
+}
+
+}  // namespace tc::replay

@@ -1,0 +1,127 @@
+#include "protocol.hpp"
+
+#include <cstring>
+
+namespace tc::protocol {
+
+const char* topic_name(Topic topic) noexcept {
+  switch (topic) {
+    case Topic::kTopology:
+      return "tetcollide/MeshTopology";
+    case Topic::kState:
+      return "tetcollide/MeshState";
+    case Topic::kForces:
+      return "tetcollide/ContactForces";
+    case Topic::kStats:
+      return "tetcollide/FrameStats";
+    case Topic::kStatus:
+      return "tetcollide/ServiceStatus";
+  }
+  return "";
+}
+
+const dds_topic_descriptor_t* topic_descriptor(Topic topic) noexcept {
+  switch (topic) {
+    case Topic::kTopology:
+      return &tetcollide_MeshTopology_desc;
+    case Topic::kState:
+      return &tetcollide_MeshState_desc;
+    case Topic::kForces:
+      return &tetcollide_ContactForces_desc;
+    case Topic::kStats:
+      return &tetcollide_FrameStats_desc;
+    case Topic::kStatus:
+      return &tetcollide_ServiceStatus_desc;
+  }
+  return nullptr;
+}
+
+QosPtr topic_qos(Topic topic) {
+  QosPtr qos(dds_create_qos());
+  // Writers block at most this long when the reliable protocol's buffers are full
+  // (a large topology on a slow link); the write then fails with a timeout.
+  const dds_duration_t max_blocking = DDS_SECS(10);
+  switch (topic) {
+    case Topic::kTopology:
+      dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kTopologyDepth);
+      break;
+    case Topic::kState:
+      dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStateDepth);
+      break;
+    case Topic::kForces:
+      dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kForcesDepth);
+      break;
+    case Topic::kStats:
+      dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStatsDepth);
+      break;
+    case Topic::kStatus:
+      dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
+      dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStatusDepth);
+      break;
+  }
+  return qos;
+}
+
+QosPtr partition_qos(const std::string& partition) {
+  if (partition.empty()) return nullptr;
+  QosPtr qos(dds_create_qos());
+  dds_qset_partition1(qos.get(), partition.c_str());
+  return qos;
+}
+
+std::string_view status_name(std::int32_t code) noexcept {
+  switch (code) {
+    case tetcollide_STATUS_OK:
+      return "ok";
+    case tetcollide_STATUS_IO:
+      return "io";
+    case tetcollide_STATUS_PARSE:
+      return "parse";
+    case tetcollide_STATUS_UNSUPPORTED:
+      return "unsupported";
+    case tetcollide_STATUS_INVALID_MESH:
+      return "invalid_mesh";
+    case tetcollide_STATUS_INVALID_ARGUMENT:
+      return "invalid_argument";
+    case tetcollide_STATUS_UNKNOWN_OBJECT:
+      return "unknown_object";
+    case tetcollide_STATUS_STALE_VERSION:
+      return "stale_version";
+    case tetcollide_STATUS_OVERSIZED:
+      return "oversized";
+    case tetcollide_STATUS_INTERNAL:
+      return "internal";
+    default:
+      return "unknown";
+  }
+}
+
+std::string dds_error(dds_return_t rc) {
+  return std::string(dds_strretcode(-rc)) + " (" + std::to_string(rc) + ")";
+}
+
+bool copy_bounded(char* field, std::size_t capacity, std::string_view text) noexcept {
+  if (capacity == 0) return false;
+  if (text.size() >= capacity || text.find('\0') != std::string_view::npos) {
+    field[0] = '\0';
+    return false;
+  }
+  std::memcpy(field, text.data(), text.size());
+  field[text.size()] = '\0';
+  return true;
+}
+
+std::string_view bounded_view(const char* field, std::size_t capacity) noexcept {
+  return {field, strnlen(field, capacity)};
+}
+
+}  // namespace tc::protocol

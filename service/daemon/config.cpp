@@ -1,0 +1,286 @@
+#include "config.hpp"
+
+#include <fnmatch.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+
+#include "tetcollide.h"
+
+namespace tc::daemon {
+namespace {
+
+/// Error that unwinds the parser; converted to an Error at the boundary.
+struct ConfigError {
+  ErrorCode code;
+  std::string message;
+};
+
+class Parser {
+ public:
+  explicit Parser(std::string name) : name_(std::move(name)) {}
+
+  [[nodiscard]] std::string where(const YAML::Mark& mark) const {
+    if (mark.is_null()) return name_;
+    return name_ + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+  }
+
+  [[noreturn]] void fail(ErrorCode code, const YAML::Node& node, const std::string& what) const {
+    throw ConfigError{code, where(node.Mark()) + ": " + what};
+  }
+
+  template <typename T>
+  T scalar(const YAML::Node& node, const std::string& key, const char* type_name) const {
+    if (!node.IsScalar()) fail(ErrorCode::kParse, node, "'" + key + "' must be " + type_name);
+    try {
+      return node.as<T>();
+    } catch (const YAML::Exception&) {
+      fail(ErrorCode::kParse, node,
+           "'" + key + "' must be " + type_name + ", got '" + node.Scalar() + "'");
+    }
+  }
+
+  bool boolean(const YAML::Node& node, const std::string& key) const {
+    return scalar<bool>(node, key, "true or false");
+  }
+
+  std::int64_t integer(const YAML::Node& node, const std::string& key, std::int64_t lo,
+                       std::int64_t hi) const {
+    const auto v = scalar<std::int64_t>(node, key, "an integer");
+    if (v < lo || v > hi)
+      fail(ErrorCode::kInvalidArgument, node,
+           "'" + key + "' must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+               "], got " + std::to_string(v));
+    return v;
+  }
+
+  double real(const YAML::Node& node, const std::string& key, double lo, double hi) const {
+    const auto v = scalar<double>(node, key, "a number");
+    if (!std::isfinite(v) || v < lo || v > hi) {
+      std::ostringstream os;
+      os << "'" << key << "' must be in [" << lo << ", " << hi << "], got " << node.Scalar();
+      fail(ErrorCode::kInvalidArgument, node, os.str());
+    }
+    return v;
+  }
+
+  std::string text(const YAML::Node& node, const std::string& key) const {
+    if (node.IsNull()) return {};
+    return scalar<std::string>(node, key, "a string");
+  }
+
+  std::string choice(const YAML::Node& node, const std::string& key,
+                     const std::vector<std::string>& choices) const {
+    const std::string v = text(node, key);
+    for (const auto& c : choices)
+      if (c == v) return v;
+    std::string list;
+    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+    fail(ErrorCode::kInvalidArgument, node,
+         "'" + key + "' must be one of " + list + ", got '" + v + "'");
+  }
+
+  std::vector<std::string> text_list(const YAML::Node& node, const std::string& key) const {
+    std::vector<std::string> out;
+    if (node.IsNull()) return out;
+    if (!node.IsSequence()) fail(ErrorCode::kParse, node, "'" + key + "' must be a list");
+    for (const auto& item : node) out.push_back(text(item, key + "[]"));
+    return out;
+  }
+
+  using Setter = std::function<void(const YAML::Node&, const std::string&)>;
+  struct Key {
+    const char* name;
+    Setter set;
+  };
+
+  /// Applies every key of the map `node` through `keys`; unknown keys are errors.
+  void section(const YAML::Node& node, const std::string& prefix,
+               const std::vector<Key>& keys) const {
+    if (node.IsNull()) return;
+    if (!node.IsMap()) fail(ErrorCode::kParse, node, "'" + prefix + "' must be a map of keys");
+    for (const auto& entry : node) {
+      const std::string key = entry.first.as<std::string>();
+      const std::string full = prefix.empty() ? key : prefix + "." + key;
+      const Key* found = nullptr;
+      for (const auto& k : keys)
+        if (key == k.name) found = &k;
+      if (found == nullptr) {
+        std::string known;
+        for (const auto& k : keys) known += (known.empty() ? "" : ", ") + std::string(k.name);
+        fail(ErrorCode::kParse, entry.first, "unknown key '" + full + "' (known: " + known + ")");
+      }
+      found->set(entry.second, full);
+    }
+  }
+
+ private:
+  std::string name_;
+};
+
+constexpr std::int64_t kMaxDomainId = 232;  // Cyclone's default port mapping limit
+
+void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
+  if (!root.IsMap()) p.fail(ErrorCode::kParse, root, "the configuration must be a map of keys");
+  const YAML::Node version = root["version"];
+  if (!version) p.fail(ErrorCode::kParse, root, "missing 'version: 1'");
+  if (p.integer(version, "version", 0, std::numeric_limits<int>::max()) != 1)
+    throw ConfigError{ErrorCode::kUnsupported,
+                      p.where(version.Mark()) + ": configuration version " + version.Scalar() +
+                          " is not supported (this daemon reads version 1)"};
+
+  const auto dds = [&](const YAML::Node& n, const std::string& k) {
+    p.section(
+        n, k,
+        {{"domain",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.domain = static_cast<std::uint32_t>(p.integer(v, kk, 0, kMaxDomainId));
+          }},
+         {"service_id",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.service_id = p.text(v, kk);
+            if (c.service_id.size() > tetcollide_MAX_SERVICE_ID)
+              p.fail(ErrorCode::kInvalidArgument, v,
+                     "'" + kk + "' is longer than " + std::to_string(tetcollide_MAX_SERVICE_ID) +
+                         " characters");
+          }},
+         {"partition",
+          [&](const YAML::Node& v, const std::string& kk) { c.partition = p.text(v, kk); }},
+         {"scenes",
+          [&](const YAML::Node& v, const std::string& kk) { c.scenes = p.text_list(v, kk); }},
+         {"cyclonedds_config",
+          [&](const YAML::Node& v, const std::string& kk) { c.cyclonedds_config = p.text(v, kk); }},
+         {"status_period_s", [&](const YAML::Node& v, const std::string& kk) {
+            c.status_period_s = p.real(v, kk, 0.01, 3600.0);
+          }}});
+  };
+  const auto frames = [&](const YAML::Node& n, const std::string& k) {
+    p.section(n, k,
+              {{"assembly_wait_ms",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.assembly_wait_ms = p.real(v, kk, 0.0, 60000.0);
+                }},
+               {"unknown_object_grace_ms",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.unknown_object_grace_ms = p.real(v, kk, 0.0, 60000.0);
+                }},
+               {"max_queued", [&](const YAML::Node& v, const std::string& kk) {
+                  c.max_queued_frames = static_cast<int>(p.integer(v, kk, 1, 64));
+                }}});
+  };
+  const auto pipeline = [&](const YAML::Node& n, const std::string& k) {
+    p.section(n, k,
+              {{"broad_phase",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.pipeline.broad_phase = p.choice(v, kk, {"grid", "hash", "sap", "bvh"});
+                }},
+               {"compute_stiffness",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.pipeline.compute_stiffness = p.boolean(v, kk);
+                }},
+               {"density_threshold", [&](const YAML::Node& v, const std::string& kk) {
+                  c.pipeline.density_threshold = p.real(v, kk, 0.0, 1.0);
+                }}});
+  };
+  const auto limits = [&](const YAML::Node& n, const std::string& k) {
+    p.section(n, k,
+              {{"max_nodes",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.limits.max_nodes = p.integer(v, kk, 4, tetcollide_MAX_NODES);
+                }},
+               {"max_tets",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.limits.max_tets = p.integer(v, kk, 1, tetcollide_MAX_TETS);
+                }},
+               {"max_objects_per_scene",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.limits.max_objects_per_scene = p.integer(v, kk, 1, 100000);
+                }},
+               {"max_scenes", [&](const YAML::Node& v, const std::string& kk) {
+                  c.limits.max_scenes = p.integer(v, kk, 1, 100000);
+                }}});
+  };
+  const auto log = [&](const YAML::Node& n, const std::string& k) {
+    p.section(
+        n, k,
+        {{"level",
+          [&](const YAML::Node& v, const std::string& kk) {
+            c.log_level = p.choice(v, kk, {"trace", "debug", "info", "warn", "error", "off"});
+          }},
+         {"file", [&](const YAML::Node& v, const std::string& kk) { c.log_file = p.text(v, kk); }},
+         {"timing_summary_period_s", [&](const YAML::Node& v, const std::string& kk) {
+            c.timing_summary_period_s = p.real(v, kk, 0.0, 86400.0);
+          }}});
+  };
+
+  p.section(root, "",
+            {{"version", [](const YAML::Node&, const std::string&) {}},
+             {"dds", dds},
+             {"threads",
+              [&](const YAML::Node& v, const std::string& kk) {
+                c.threads = static_cast<int>(p.integer(v, kk, 0, 1024));
+              }},
+             {"frames", frames},
+             {"pipeline", pipeline},
+             {"limits", limits},
+             {"log", log}});
+}
+
+}  // namespace
+
+Expected<DaemonConfig> parse_config(std::string_view text, const std::string& name) {
+  DaemonConfig config;
+  const Parser parser(name);
+  try {
+    const YAML::Node root = YAML::Load(std::string(text));
+    parse_document(parser, root, config);
+  } catch (const ConfigError& e) {
+    return Error{e.code, e.message};
+  } catch (const YAML::Exception& e) {
+    return Error{ErrorCode::kParse, parser.where(e.mark) + ": " + e.msg};
+  }
+  if (Status st = check_config(config); !st)
+    return Error{st.error().code, name + ": " + st.error().message};
+  return config;
+}
+
+Expected<DaemonConfig> load_config(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{ErrorCode::kIo, path.string() + ": cannot open the configuration file"};
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return Error{ErrorCode::kIo, path.string() + ": read error"};
+  return parse_config(buffer.str(), path.string());
+}
+
+Status check_config(const DaemonConfig& c) {
+  if (c.domain > kMaxDomainId)
+    return Error{ErrorCode::kInvalidArgument,
+                 "dds.domain must be in [0, 232], got " + std::to_string(c.domain)};
+  if (c.service_id.size() > tetcollide_MAX_SERVICE_ID)
+    return Error{ErrorCode::kInvalidArgument, "dds.service_id is too long"};
+  for (const auto& pattern : c.scenes)
+    if (pattern.empty() || pattern.size() > tetcollide_MAX_SCENE_NAME)
+      return Error{ErrorCode::kInvalidArgument, "dds.scenes: a pattern must have 1 to " +
+                                                    std::to_string(tetcollide_MAX_SCENE_NAME) +
+                                                    " characters"};
+  if (c.limits.max_nodes < 4 || c.limits.max_nodes > tetcollide_MAX_NODES)
+    return Error{ErrorCode::kInvalidArgument, "limits.max_nodes is out of range"};
+  if (c.limits.max_tets < 1 || c.limits.max_tets > tetcollide_MAX_TETS)
+    return Error{ErrorCode::kInvalidArgument, "limits.max_tets is out of range"};
+  return {};
+}
+
+bool scene_selected(const std::vector<std::string>& patterns, std::string_view scene) {
+  if (patterns.empty()) return true;
+  const std::string name(scene);
+  for (const auto& pattern : patterns)
+    if (fnmatch(pattern.c_str(), name.c_str(), 0) == 0) return true;
+  return false;
+}
+
+}  // namespace tc::daemon

@@ -1,0 +1,68 @@
+// tetcollided configuration: the struct the daemon runs on, its embedded defaults and
+// the YAML reader (config/tetcollided.yaml documents every key with its default).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/common/result.hpp"
+#include "core/scene/pipeline.hpp"
+
+namespace tc::daemon {
+
+/// Size limits checked on every sample before anything is built from it.
+struct Limits {
+  std::int64_t max_nodes = 1'000'000;        ///< nodes of one object (IDL bound 1,000,000)
+  std::int64_t max_tets = 6'000'000;         ///< tets of one object (IDL bound 6,000,000)
+  std::int64_t max_objects_per_scene = 256;  ///< registered objects in one scene
+  std::int64_t max_scenes = 256;             ///< scenes served at once
+};
+
+struct DaemonConfig {
+  // dds:
+  std::uint32_t domain = 0;         ///< DDS domain id, 0..232
+  std::string service_id;           ///< "" = tetcollided-<host>-<pid>
+  std::string partition;            ///< DDS partition of every reader/writer, "" = default
+  std::vector<std::string> scenes;  ///< scene name patterns served (fnmatch); empty = all
+  std::string cyclonedds_config;    ///< Cyclone config (XML or file://), "" = CYCLONEDDS_URI
+  double status_period_s = 1.0;     ///< ServiceStatus heartbeat period, seconds
+
+  // threads:
+  int threads = 0;  ///< worker threads running scene pipelines; 0 = one per core
+
+  // frames:
+  double assembly_wait_ms = 10.0;          ///< wait for the scene's missing states, ms
+  double unknown_object_grace_ms = 200.0;  ///< hold a state whose topology is not in yet, ms
+  int max_queued_frames = 2;               ///< assembled frames waiting per scene; older drop
+
+  // pipeline:
+  PipelineConfig pipeline;
+
+  // limits:
+  Limits limits;
+
+  // log:
+  std::string log_level = "info";         ///< trace | debug | info | warn | error | off
+  std::string log_file;                   ///< "" = stderr only
+  double timing_summary_period_s = 10.0;  ///< info line with frame-time percentiles; 0 = off
+};
+
+/// Parses a configuration document. Keys not given keep their defaults; unknown keys,
+/// wrong types and out-of-range values are errors (kParse / kInvalidArgument) whose
+/// message is "<name>:<line>:<column>: ..." (1-based). `version: 1` is required.
+Expected<DaemonConfig> parse_config(std::string_view text, const std::string& name);
+
+/// Reads and parses a configuration file (kIo when it cannot be read).
+Expected<DaemonConfig> load_config(const std::filesystem::path& path);
+
+/// Checks the cross-field and range rules parse_config applies (used after command-line
+/// overrides too). The message names the key.
+Status check_config(const DaemonConfig& config);
+
+/// True when `scene` is served by a daemon with these scene patterns.
+bool scene_selected(const std::vector<std::string>& patterns, std::string_view scene);
+
+}  // namespace tc::daemon

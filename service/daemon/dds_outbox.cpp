@@ -1,0 +1,153 @@
+#include "dds_outbox.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include "protocol.hpp"
+#include "tetcollide.h"
+
+namespace tc::daemon {
+namespace {
+
+tetcollide_ServiceState to_wire(ServiceState s) {
+  switch (s) {
+    case ServiceState::kStarting:
+      return tetcollide_STATE_STARTING;
+    case ServiceState::kReady:
+      return tetcollide_STATE_READY;
+    case ServiceState::kStopping:
+      return tetcollide_STATE_STOPPING;
+  }
+  return tetcollide_STATE_STARTING;
+}
+
+tetcollide_StatusKind to_wire(StatusKind k) {
+  switch (k) {
+    case StatusKind::kHeartbeat:
+      return tetcollide_KIND_HEARTBEAT;
+    case StatusKind::kStateChange:
+      return tetcollide_KIND_STATE_CHANGE;
+    case StatusKind::kRegistered:
+      return tetcollide_KIND_REGISTERED;
+    case StatusKind::kRemoved:
+      return tetcollide_KIND_REMOVED;
+    case StatusKind::kError:
+      return tetcollide_KIND_ERROR;
+  }
+  return tetcollide_KIND_ERROR;
+}
+
+/// Copies a name into a bounded field, cutting it when too long (names are validated
+/// before they get here; this only guards the status topic against odd input).
+template <std::size_t N>
+void copy_cut(char (&field)[N], std::string_view text) {
+  if (text.size() >= N) text = text.substr(0, N - 1);
+  if (!protocol::copy_bounded(field, text)) field[0] = '\0';
+}
+
+Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol::Topic topic,
+                     dds_entity_t& out) {
+  const auto qos = protocol::topic_qos(topic);
+  const dds_entity_t t = dds_create_topic(participant, protocol::topic_descriptor(topic),
+                                          protocol::topic_name(topic), qos.get(), nullptr);
+  if (t < 0)
+    return Error{ErrorCode::kIo, std::string("dds_create_topic(") + protocol::topic_name(topic) +
+                                     "): " + protocol::dds_error(t)};
+  out = dds_create_writer(publisher, t, qos.get(), nullptr);
+  if (out < 0)
+    return Error{ErrorCode::kIo, std::string("dds_create_writer(") + protocol::topic_name(topic) +
+                                     "): " + protocol::dds_error(out)};
+  return {};
+}
+
+}  // namespace
+
+DdsOutbox::DdsOutbox(std::string service_id, std::string partition)
+    : service_id_(std::move(service_id)), partition_(std::move(partition)) {}
+
+Status DdsOutbox::create(dds_entity_t participant) {
+  const auto pqos = protocol::partition_qos(partition_);
+  const dds_entity_t publisher = dds_create_publisher(participant, pqos.get(), nullptr);
+  if (publisher < 0)
+    return Error{ErrorCode::kIo, "dds_create_publisher: " + protocol::dds_error(publisher)};
+  if (Status st = create_writer(publisher, participant, protocol::Topic::kForces, forces_writer_);
+      !st)
+    return st;
+  if (Status st = create_writer(publisher, participant, protocol::Topic::kStats, stats_writer_);
+      !st)
+    return st;
+  return create_writer(publisher, participant, protocol::Topic::kStatus, status_writer_);
+}
+
+void DdsOutbox::write_failed(const char* topic, dds_return_t rc) {
+  const auto n = ++write_errors_;
+  // Log the first few failures and then every 1000th: a dead link must not flood the log.
+  if (n <= 10 || n % 1000 == 0)
+    spdlog::error("dds_write({}) failed: {} ({} write errors so far)", topic,
+                  protocol::dds_error(rc), n);
+}
+
+void DdsOutbox::publish_forces(const ForcesMessage& m) {
+  tetcollide_ContactForces s{};
+  copy_cut(s.scene, m.scene);
+  copy_cut(s.object, m.object);
+  s.frame = m.frame;
+  s.topology_version = m.topology_version;
+  s.status = m.status;
+  protocol::borrow(s.nodes, const_cast<Index*>(m.nodes.data()), m.nodes.size());
+  protocol::borrow(s.forces, const_cast<double*>(m.forces.data()), m.forces.size());
+  protocol::borrow(s.stiffness, const_cast<double*>(m.stiffness.data()), m.stiffness.size());
+  if (const dds_return_t rc = dds_write(forces_writer_, &s); rc < 0)
+    write_failed("ContactForces", rc);
+}
+
+void DdsOutbox::publish_stats(const StatsMessage& m) {
+  tetcollide_FrameStats s{};
+  copy_cut(s.scene, m.scene);
+  s.frame = m.frame;
+  s.assembly_ms = m.assembly_ms;
+  s.queue_ms = m.queue_ms;
+  s.broad_ms = m.core.broad_ms;
+  s.narrow_ms = m.core.narrow_ms;
+  s.depth_ms = m.core.depth_ms;
+  s.response_ms = m.core.response_ms;
+  s.compute_ms = m.core.total_ms;
+  s.publish_ms = m.publish_ms;
+  s.objects = m.objects;
+  s.states = m.states;
+  s.rejected = m.rejected;
+  s.candidate_pairs = m.core.candidate_pairs;
+  s.overlapping_pairs = m.core.overlapping_pairs;
+  s.settled_nodes = m.core.settled_nodes;
+  s.contacts = m.core.contacts;
+  s.max_depth = m.core.max_depth;
+  s.dropped_frames = m.dropped_frames;
+  if (const dds_return_t rc = dds_write(stats_writer_, &s); rc < 0) write_failed("FrameStats", rc);
+}
+
+void DdsOutbox::publish_status(const StatusMessage& m) {
+  tetcollide_ServiceStatus s{};
+  copy_cut(s.service_id, service_id_);
+  s.sequence_number = ++sequence_;
+  s.state = to_wire(static_cast<ServiceState>(state_.load()));
+  s.kind = to_wire(m.kind);
+  s.code = m.code;
+  copy_cut(s.scene, m.scene);
+  copy_cut(s.object, m.object);
+  s.topology_version = m.topology_version;
+  s.frame = m.frame;
+  copy_cut(s.message, m.message);
+  s.protocol_version = tetcollide_PROTOCOL_VERSION;
+  if (const dds_return_t rc = dds_write(status_writer_, &s); rc < 0)
+    write_failed("ServiceStatus", rc);
+}
+
+void DdsOutbox::set_state(ServiceState state, const std::string& message) {
+  state_.store(static_cast<int>(state));
+  StatusMessage m;
+  m.kind = StatusKind::kStateChange;
+  m.code = tetcollide_STATUS_OK;
+  m.message = message;
+  publish_status(m);
+}
+
+}  // namespace tc::daemon

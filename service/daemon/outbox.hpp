@@ -1,0 +1,64 @@
+// What the daemon publishes, as plain C++ messages, and the interface that sends them
+// (DDS writers in the daemon, a recorder in the tests). Publishing may be called from
+// several threads at once.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "core/mesh/tet_mesh.hpp"
+#include "core/scene/pipeline.hpp"
+
+namespace tc::daemon {
+
+/// Contact forces on one object for one answered frame (ContactForces topic).
+struct ForcesMessage {
+  std::string_view scene;
+  std::string_view object;
+  std::int64_t frame = 0;
+  std::uint32_t topology_version = 0;
+  std::int32_t status = 0;            ///< STATUS_*
+  std::span<const Index> nodes;       ///< k sorted node indices
+  std::span<const double> forces;     ///< 3k, newtons
+  std::span<const double> stiffness;  ///< 9k row-major df/dx blocks, or empty
+};
+
+/// One scene's frame timings and counts (FrameStats topic).
+struct StatsMessage {
+  std::string_view scene;
+  std::int64_t frame = 0;
+  double assembly_ms = 0.0;
+  double queue_ms = 0.0;
+  FrameStats core;  ///< the pipeline's stage timings and counts
+  double publish_ms = 0.0;
+  std::uint32_t objects = 0;
+  std::uint32_t states = 0;
+  std::uint32_t rejected = 0;
+  std::uint64_t dropped_frames = 0;
+};
+
+enum class StatusKind { kHeartbeat, kStateChange, kRegistered, kRemoved, kError };
+enum class ServiceState { kStarting, kReady, kStopping };
+
+/// A life-cycle event, a registration or an error (ServiceStatus topic).
+struct StatusMessage {
+  StatusKind kind = StatusKind::kError;
+  std::int32_t code = 0;  ///< STATUS_*
+  std::string scene;
+  std::string object;
+  std::uint32_t topology_version = 0;
+  std::int64_t frame = -1;
+  std::string message;
+};
+
+class Outbox {
+ public:
+  virtual ~Outbox() = default;
+  virtual void publish_forces(const ForcesMessage& message) = 0;
+  virtual void publish_stats(const StatsMessage& message) = 0;
+  virtual void publish_status(const StatusMessage& message) = 0;
+};
+
+}  // namespace tc::daemon

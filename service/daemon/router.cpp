@@ -1,0 +1,355 @@
+#include "router.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "protocol.hpp"
+#include "tetcollide.h"
+
+namespace tc::daemon {
+namespace {
+
+/// Held states across all scenes; one more is rejected at once (unknown_object).
+constexpr std::size_t kMaxHeld = 1024;
+/// One log line per (scene, object, code) per window; the rest are counted.
+constexpr auto kReportWindow = std::chrono::seconds(1);
+constexpr std::size_t kMaxThrottleEntries = 4096;
+
+Clock::duration from_ms(double ms) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(ms));
+}
+
+/// Printable form of a name that may be invalid (control characters replaced).
+std::string printable(std::string_view text) {
+  std::string out(text.substr(0, 256));
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  return out;
+}
+
+}  // namespace
+
+Router::Router(const DaemonConfig& config, Outbox& outbox, JobSink& jobs)
+    : config_(config),
+      outbox_(outbox),
+      jobs_(jobs),
+      assembly_wait_(from_ms(config.assembly_wait_ms)),
+      grace_(from_ms(config.unknown_object_grace_ms)) {}
+
+const SceneRegistry* Router::registry(std::string_view scene) const {
+  const auto it = scenes_.find(scene);
+  return it == scenes_.end() ? nullptr : &it->second.registry;
+}
+
+void Router::report(std::int32_t code, std::string_view scene, std::string_view object,
+                    std::uint32_t version, std::int64_t frame, const std::string& message,
+                    Clock::time_point now) {
+  // Every rejection goes to the status topic; the log gets one line per (scene, object,
+  // code) per window so a client sending bad frames at 1 kHz cannot flood it.
+  StatusMessage msg;
+  msg.kind = StatusKind::kError;
+  msg.code = code;
+  msg.scene = printable(scene);
+  msg.object = printable(object);
+  msg.topology_version = version;
+  msg.frame = frame;
+  msg.message = message;
+  outbox_.publish_status(msg);
+
+  if (throttle_.size() > kMaxThrottleEntries) throttle_.clear();
+  Throttle& t = throttle_[{msg.scene, msg.object, code}];
+  if (t.last != Clock::time_point{} && now - t.last < kReportWindow) {
+    ++t.suppressed;
+    return;
+  }
+  std::string suppressed;
+  if (t.suppressed > 0)
+    suppressed = " (" + std::to_string(t.suppressed) + " similar errors not logged)";
+  t.last = now;
+  t.suppressed = 0;
+  spdlog::warn("{}/{}: rejected ({}): {}{}", msg.scene, msg.object, protocol::status_name(code),
+               message, suppressed);
+}
+
+void Router::answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
+                        std::uint32_t version, std::int32_t code) {
+  ForcesMessage f;
+  f.scene = scene;
+  f.object = object;
+  f.frame = frame;
+  f.topology_version = version;
+  f.status = code;
+  outbox_.publish_forces(f);
+}
+
+void Router::on_topology(const TopologyView& t, Clock::time_point now) {
+  if (!scene_selected(config_.scenes, t.scene)) {
+    spdlog::debug("{}/{}: topology ignored (scene not served here)", printable(t.scene),
+                  printable(t.object));
+    return;
+  }
+  if (Status st = validate_topology(t, config_.limits); !st) {
+    report(status_code(st.error().code), t.scene, t.object, t.version, -1,
+           "topology version " + std::to_string(t.version) + ": " + st.error().message, now);
+    return;
+  }
+  auto it = scenes_.find(t.scene);
+  if (it == scenes_.end()) {
+    if (static_cast<std::int64_t>(scenes_.size()) >= config_.limits.max_scenes) {
+      report(tetcollide_STATUS_OVERSIZED, t.scene, t.object, t.version, -1,
+             "limits.max_scenes = " + std::to_string(config_.limits.max_scenes) +
+                 " scenes are served already",
+             now);
+      return;
+    }
+    it = scenes_.emplace(std::string(t.scene), Scene(assembly_wait_)).first;
+  }
+  Scene& scene = it->second;
+  const std::string object(t.object);
+  if (scene.registry.current(object) == nullptr &&
+      static_cast<std::int64_t>(scene.registry.size()) >= config_.limits.max_objects_per_scene) {
+    report(tetcollide_STATUS_OVERSIZED, t.scene, t.object, t.version, -1,
+           "limits.max_objects_per_scene = " +
+               std::to_string(config_.limits.max_objects_per_scene) + " reached",
+           now);
+    close_if_empty(it);
+    return;
+  }
+  const VersionInfo info{t.version, static_cast<Index>(t.rest_positions.size() / 3),
+                         t.params.is_static};
+  if (!scene.registry.submit(object, info)) {
+    spdlog::debug("{}/{}: topology version {} received again, ignored", it->first, object,
+                  t.version);
+    return;
+  }
+  TopologyJob job;
+  job.object = object;
+  job.version = t.version;
+  job.mesh = to_mesh(t);
+  job.params = to_params(t.params);
+  job.received = now;
+  spdlog::info("{}/{}: topology version {} received ({} nodes, {} tets)", it->first, object,
+               t.version, info.nodes, t.tets.size() / 4);
+  jobs_.post(it->first, std::move(job));
+  release_held(it->first, scene, object, now);
+}
+
+void Router::on_topology_gone(std::string_view scene_name, std::string_view object_name) {
+  held_.erase(HeldKey{std::string(scene_name), std::string(object_name)});
+  const auto it = scenes_.find(scene_name);
+  if (it == scenes_.end()) return;
+  const std::string object(object_name);
+  Scene& scene = it->second;
+  if (scene.registry.current(object) == nullptr) return;
+  scene.registry.remove(object);
+  scene.assembler.remove(object);
+  spdlog::info("{}/{}: topology disposed or its writer is gone; removing the object", it->first,
+               object);
+  jobs_.post(it->first, RemoveJob{object});
+  close_if_empty(it);
+}
+
+void Router::close_if_empty(std::map<std::string, Scene, std::less<>>::iterator it) {
+  if (!it->second.registry.empty()) return;
+  jobs_.close_scene(it->first);
+  scenes_.erase(it);
+}
+
+void Router::on_topology_result(const TopologyResult& r, Clock::time_point now) {
+  const auto it = scenes_.find(r.scene);
+  if (it == scenes_.end()) return;
+  it->second.registry.confirm(r.object, r.version, r.ok);
+  if (r.ok) return;
+  if (it->second.registry.current(r.object) == nullptr) it->second.assembler.remove(r.object);
+  if (it->second.registry.empty()) {
+    close_if_empty(it);
+    return;
+  }
+  try_dispatch(it->first, it->second, now);
+}
+
+void Router::on_state(const StateView& s, Clock::time_point now) {
+  if (!scene_selected(config_.scenes, s.scene)) return;
+  if (Status st = validate_state_header(s, config_.limits); !st) {
+    const auto code = status_code(st.error().code);
+    report(code, s.scene, s.object, s.topology_version, s.frame, st.error().message, now);
+    const auto it = scenes_.find(s.scene);
+    if (it != scenes_.end() && it->second.registry.current(s.object) != nullptr) {
+      add_rejected(it->second, s, code, st.error().message, now);
+      try_dispatch(it->first, it->second, now);
+    } else if (validate_name(s.scene, tetcollide_MAX_SCENE_NAME, "scene") &&
+               validate_name(s.object, tetcollide_MAX_OBJECT_NAME, "object")) {
+      answer_now(s.scene, s.object, s.frame, s.topology_version, code);
+    }
+    return;
+  }
+  const auto it = scenes_.find(s.scene);
+  const auto match = it == scenes_.end() ? SceneRegistry::Match::kUnknown
+                                         : it->second.registry.match(s.object, s.topology_version);
+  if (match == SceneRegistry::Match::kUnknown) {
+    hold(s, now);
+    return;
+  }
+  admit(it->first, it->second, s, now, now);
+  try_dispatch(it->first, it->second, now);
+}
+
+void Router::admit(const std::string& scene_name, Scene& scene, const StateView& s,
+                   Clock::time_point received, Clock::time_point now) {
+  const VersionInfo* current = scene.registry.current(s.object);
+  if (scene.registry.match(s.object, s.topology_version) == SceneRegistry::Match::kStale) {
+    const std::string message = "frame " + std::to_string(s.frame) + ": topology version " +
+                                std::to_string(s.topology_version) + " is stale (current is " +
+                                std::to_string(current->version) + ")";
+    report(tetcollide_STATUS_STALE_VERSION, scene_name, s.object, s.topology_version, s.frame,
+           message, now);
+    add_rejected(scene, s, tetcollide_STATUS_STALE_VERSION, message, received);
+    return;
+  }
+  if (Status st = validate_state(s, config_.limits, current->nodes); !st) {
+    const auto code = status_code(st.error().code);
+    report(code, scene_name, s.object, s.topology_version, s.frame, st.error().message, now);
+    add_rejected(scene, s, code, st.error().message, received);
+    return;
+  }
+  PendingState p;
+  p.object = std::string(s.object);
+  p.version = s.topology_version;
+  p.frame = s.frame;
+  p.positions = to_positions(s.positions);
+  p.received = received;
+  scene.assembler.add(std::move(p));
+}
+
+void Router::add_rejected(Scene& scene, const StateView& s, std::int32_t code,
+                          const std::string& message, Clock::time_point received) {
+  PendingState p;
+  p.object = std::string(s.object);
+  p.version = s.topology_version;
+  p.frame = s.frame;
+  p.received = received;
+  p.rejected_code = code;
+  p.rejected_message = message;
+  scene.assembler.add(std::move(p));
+}
+
+bool Router::holds_state_of_registered(const std::string& scene_name, const Scene& scene) const {
+  for (auto it = held_.lower_bound(HeldKey{scene_name, std::string()});
+       it != held_.end() && it->first.first == scene_name; ++it)
+    if (scene.registry.current(it->first.second) != nullptr) return true;
+  return false;
+}
+
+void Router::try_dispatch(const std::string& scene_name, Scene& scene, Clock::time_point now) {
+  // A registered object whose state waits for its new topology version (a cut in
+  // flight) is resolved first, within the grace: admitted or rejected, it then takes
+  // part in the frame instead of being answered as if it had sent nothing.
+  const bool may_time_out = !holds_state_of_registered(scene_name, scene);
+  auto frame = scene.assembler.poll(scene.registry.expected(), now, may_time_out);
+  if (!frame) return;
+  FrameJob job;
+  job.frame = frame->frame;
+  job.first_received = frame->first_received;
+  job.dispatched = now;
+  job.complete = frame->complete;
+  for (auto& s : frame->states) {
+    if (s.rejected_code != 0) {
+      job.rejected.push_back(RejectedState{std::move(s.object), s.version, s.rejected_code});
+    } else {
+      FrameObjectInput in;
+      in.object = std::move(s.object);
+      in.topology_version = s.version;
+      in.positions = std::move(s.positions);
+      job.states.push_back(std::move(in));
+    }
+  }
+  if (!frame->complete)
+    spdlog::debug("{}: frame {} dispatched after the assembly wait with {} of {} states",
+                  scene_name, job.frame, job.states.size() + job.rejected.size(),
+                  scene.registry.size());
+  jobs_.post(scene_name, std::move(job));
+}
+
+void Router::hold(const StateView& s, Clock::time_point now) {
+  HeldKey key{std::string(s.scene), std::string(s.object)};
+  auto it = held_.find(key);
+  if (it == held_.end() && held_.size() >= kMaxHeld) {
+    const std::string message = "frame " + std::to_string(s.frame) +
+                                ": no topology for this object (and too many states held)";
+    report(tetcollide_STATUS_UNKNOWN_OBJECT, s.scene, s.object, s.topology_version, s.frame,
+           message, now);
+    answer_now(s.scene, s.object, s.frame, s.topology_version, tetcollide_STATUS_UNKNOWN_OBJECT);
+    return;
+  }
+  Held& h = held_[key];
+  h.frame = s.frame;
+  h.version = s.topology_version;
+  h.positions.assign(s.positions.begin(), s.positions.end());
+  h.velocities.assign(s.velocities.begin(), s.velocities.end());
+  if (it == held_.end()) h.received = now;  // the grace runs from the first held state
+}
+
+void Router::release_held(const std::string& scene_name, Scene& scene, const std::string& object,
+                          Clock::time_point now) {
+  const auto it = held_.find(HeldKey{scene_name, object});
+  if (it == held_.end()) return;
+  if (scene.registry.match(object, it->second.version) == SceneRegistry::Match::kUnknown) return;
+  const Held h = std::move(it->second);
+  held_.erase(it);
+  StateView view;
+  view.scene = scene_name;
+  view.object = object;
+  view.frame = h.frame;
+  view.topology_version = h.version;
+  view.positions = h.positions;
+  view.velocities = h.velocities;
+  admit(scene_name, scene, view, h.received, now);
+  try_dispatch(scene_name, scene, now);
+}
+
+void Router::tick(Clock::time_point now) {
+  for (auto it = held_.begin(); it != held_.end();) {
+    if (now - it->second.received < grace_) {
+      ++it;
+      continue;
+    }
+    const auto& [scene_name, object] = it->first;
+    const auto scene = scenes_.find(scene_name);
+    const bool known = scene != scenes_.end() && scene->second.registry.current(object) != nullptr;
+    const std::int32_t code =
+        known ? tetcollide_STATUS_STALE_VERSION : tetcollide_STATUS_UNKNOWN_OBJECT;
+    const std::string message =
+        known ? "frame " + std::to_string(it->second.frame) + ": topology version " +
+                    std::to_string(it->second.version) + " was never registered (current is " +
+                    std::to_string(scene->second.registry.current(object)->version) + ")"
+              : "frame " + std::to_string(it->second.frame) +
+                    ": no topology registered for this object";
+    report(code, scene_name, object, it->second.version, it->second.frame, message, now);
+    if (known) {
+      StateView view;
+      view.scene = scene_name;
+      view.object = object;
+      view.frame = it->second.frame;
+      view.topology_version = it->second.version;
+      add_rejected(scene->second, view, code, message, it->second.received);
+    } else {
+      answer_now(scene_name, object, it->second.frame, it->second.version, code);
+    }
+    it = held_.erase(it);
+  }
+  for (auto& [name, scene] : scenes_) try_dispatch(name, scene, now);
+}
+
+std::optional<Clock::time_point> Router::next_deadline() const {
+  std::optional<Clock::time_point> out;
+  const auto consider = [&](Clock::time_point t) {
+    if (!out || t < *out) out = t;
+  };
+  for (const auto& [name, scene] : scenes_)
+    if (const auto d = scene.assembler.deadline()) consider(*d);
+  for (const auto& [key, h] : held_) consider(h.received + grace_);
+  return out;
+}
+
+}  // namespace tc::daemon

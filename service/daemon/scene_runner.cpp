@@ -1,0 +1,272 @@
+#include "scene_runner.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <exception>
+
+#include "samples.hpp"
+#include "tetcollide.h"
+
+namespace tc::daemon {
+namespace {
+
+static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double),
+              "ObjectForces::forces must be contiguous xyz triples");
+
+double ms_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+/// Value at fraction q (0..1) of a sample (reordered), nearest rank.
+double percentile(std::vector<double>& values, double q) {
+  if (values.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5);
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
+SceneRunner::SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
+                         TopologyResultSink on_topology, double timing_summary_period_s)
+    : scene_(std::move(scene)),
+      pipeline_(config),
+      outbox_(outbox),
+      on_topology_(std::move(on_topology)),
+      summary_period_(timing_summary_period_s) {}
+
+void SceneRunner::run(SceneJob& job) {
+  std::visit(
+      [this](auto& j) {
+        using T = std::decay_t<decltype(j)>;
+        if constexpr (std::is_same_v<T, TopologyJob>) {
+          run_topology(j);
+        } else if constexpr (std::is_same_v<T, RemoveJob>) {
+          run_remove(j);
+        } else {
+          run_frame(j);
+        }
+      },
+      job);
+}
+
+void SceneRunner::run_topology(TopologyJob& job) {
+  const auto start = Clock::now();
+  const auto nodes = job.mesh.num_nodes();
+  const auto tets = job.mesh.num_tets();
+  Status st = Error{ErrorCode::kInvalidMesh, {}};
+  try {
+    st = pipeline_.set_topology(job.object, job.version, std::move(job.mesh), job.params);
+  } catch (const std::exception& e) {
+    st = Error{ErrorCode::kInvalidArgument, std::string("internal error: ") + e.what()};
+  }
+  const double build_ms = ms_between(start, Clock::now());
+  StatusMessage msg;
+  msg.scene = scene_;
+  msg.object = job.object;
+  msg.topology_version = job.version;
+  if (st) {
+    active_[job.object] = job.version;
+    msg.kind = StatusKind::kRegistered;
+    msg.code = tetcollide_STATUS_OK;
+    msg.message = "registered topology version " + std::to_string(job.version) + ": " +
+                  std::to_string(nodes) + " nodes, " + std::to_string(tets) + " tets, built in " +
+                  std::to_string(build_ms) + " ms (" +
+                  std::to_string(ms_between(job.received, Clock::now())) + " ms since received)";
+    spdlog::info("{}/{}: {}", scene_, job.object, msg.message);
+  } else {
+    msg.kind = StatusKind::kError;
+    msg.code = status_code(st.error().code);
+    msg.message =
+        "topology version " + std::to_string(job.version) + " rejected: " + st.error().message;
+    spdlog::warn("{}/{}: {}", scene_, job.object, msg.message);
+  }
+  outbox_.publish_status(msg);
+  if (on_topology_) on_topology_(TopologyResult{scene_, job.object, job.version, st.ok()});
+}
+
+void SceneRunner::run_remove(const RemoveJob& job) {
+  pipeline_.remove_object(job.object);
+  const auto it = active_.find(job.object);
+  if (it == active_.end()) return;
+  StatusMessage msg;
+  msg.kind = StatusKind::kRemoved;
+  msg.code = tetcollide_STATUS_OK;
+  msg.scene = scene_;
+  msg.object = job.object;
+  msg.topology_version = it->second;
+  msg.message = "object removed";
+  active_.erase(it);
+  spdlog::info("{}/{}: removed", scene_, job.object);
+  outbox_.publish_status(msg);
+}
+
+void SceneRunner::run_frame(FrameJob& job) {
+  const auto start = Clock::now();
+  FrameOutput output;
+  bool failed = false;
+  try {
+    output = pipeline_.run_frame(job.frame, job.states);
+  } catch (const std::exception& e) {
+    failed = true;
+    output = FrameOutput{};
+    output.frame = job.frame;
+    spdlog::error("{}: frame {} failed: {}", scene_, job.frame, e.what());
+    StatusMessage msg;
+    msg.kind = StatusKind::kError;
+    msg.code = tetcollide_STATUS_INTERNAL;
+    msg.scene = scene_;
+    msg.frame = job.frame;
+    msg.message = std::string("frame not computed: ") + e.what();
+    outbox_.publish_status(msg);
+  }
+  const auto computed = Clock::now();
+  for (const auto& err : output.errors) {
+    StatusMessage msg;
+    msg.kind = StatusKind::kError;
+    msg.code = status_code(err.error.code);
+    msg.scene = scene_;
+    msg.object = err.object;
+    const auto it = active_.find(err.object);
+    msg.topology_version = it == active_.end() ? 0 : it->second;
+    msg.frame = job.frame;
+    msg.message = err.error.message;
+    spdlog::warn("{}/{}: frame {} rejected: {}", scene_, err.object, job.frame, err.error.message);
+    outbox_.publish_status(msg);
+  }
+  if (failed) {
+    // Every object is answered with the internal error so no client waits in vain.
+    for (const auto& [name, version] : active_) {
+      ForcesMessage f;
+      f.scene = scene_;
+      f.object = name;
+      f.frame = job.frame;
+      f.topology_version = version;
+      f.status = tetcollide_STATUS_INTERNAL;
+      outbox_.publish_forces(f);
+    }
+  } else {
+    publish_answers(job, output);
+  }
+  const auto published = Clock::now();
+
+  StatsMessage stats;
+  stats.scene = scene_;
+  stats.frame = job.frame;
+  stats.assembly_ms = ms_between(job.first_received, job.dispatched);
+  stats.queue_ms = ms_between(job.dispatched, start);
+  stats.core = output.stats;
+  if (stats.core.total_ms <= 0.0) stats.core.total_ms = ms_between(start, computed);
+  stats.publish_ms = ms_between(computed, published);
+  stats.objects = static_cast<std::uint32_t>(active_.size());
+  stats.states = static_cast<std::uint32_t>(job.states.size());
+  stats.rejected = static_cast<std::uint32_t>(job.rejected.size() + output.errors.size());
+  stats.dropped_frames = job.dropped_frames;
+  outbox_.publish_stats(stats);
+
+  const double latency = ms_between(job.first_received, published);
+  if (spdlog::should_log(spdlog::level::debug))
+    spdlog::debug(
+        "{}: frame {}{}: {} objects, {} states, {} rejected; assembly {:.3f} ms, queue {:.3f} "
+        "ms, compute {:.3f} ms (broad {:.3f}, narrow {:.3f}, depth {:.3f}, response {:.3f}), "
+        "publish {:.3f} ms; {} candidate / {} overlapping pairs, {} contacts",
+        scene_, job.frame, job.complete ? "" : " (partial)", stats.objects, stats.states,
+        stats.rejected, stats.assembly_ms, stats.queue_ms, stats.core.total_ms, stats.core.broad_ms,
+        stats.core.narrow_ms, stats.core.depth_ms, stats.core.response_ms, stats.publish_ms,
+        stats.core.candidate_pairs, stats.core.overlapping_pairs, stats.core.contacts);
+  report_timing(stats.core.total_ms, latency);
+}
+
+void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output) {
+  // Index the pipeline's per-object results by name.
+  std::vector<const ObjectForces*> forces;
+  forces.reserve(output.forces.size());
+  for (const auto& f : output.forces) forces.push_back(&f);
+  std::sort(forces.begin(), forces.end(),
+            [](const ObjectForces* a, const ObjectForces* b) { return a->object < b->object; });
+  const auto find_forces = [&](const std::string& name) -> const ObjectForces* {
+    const auto it =
+        std::lower_bound(forces.begin(), forces.end(), name,
+                         [](const ObjectForces* f, const std::string& n) { return f->object < n; });
+    return it != forces.end() && (*it)->object == name ? *it : nullptr;
+  };
+  const auto error_of = [&](const std::string& name) -> std::int32_t {
+    for (const auto& r : job.rejected)
+      if (r.object == name) return r.code;
+    for (const auto& e : output.errors)
+      if (e.object == name) return status_code(e.error.code);
+    return tetcollide_STATUS_OK;
+  };
+
+  ForcesMessage msg;
+  msg.scene = scene_;
+  msg.frame = job.frame;
+  for (const auto& [name, version] : active_) {
+    msg.object = name;
+    msg.topology_version = version;
+    msg.status = error_of(name);
+    msg.nodes = {};
+    msg.forces = {};
+    msg.stiffness = {};
+    const ObjectForces* f = msg.status == tetcollide_STATUS_OK ? find_forces(name) : nullptr;
+    if (f != nullptr && !f->nodes.empty()) {
+      msg.nodes = f->nodes;
+      msg.forces = {reinterpret_cast<const double*>(f->forces.data()), 3 * f->forces.size()};
+      if (f->stiffness.size() == f->nodes.size()) {
+        stiffness_rows_.resize(9 * f->stiffness.size());
+        for (std::size_t k = 0; k < f->stiffness.size(); ++k)
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) stiffness_rows_[9 * k + 3 * r + c] = f->stiffness[k](r, c);
+        msg.stiffness = stiffness_rows_;
+      }
+    }
+    outbox_.publish_forces(msg);
+  }
+  // Objects the scene does not hold (rejected before or by the pipeline) get their
+  // answer too, so their simulator knows the frame is done.
+  const auto answer_unheld = [&](const std::string& name, std::uint32_t version,
+                                 std::int32_t code) {
+    if (active_.count(name) != 0) return;
+    ForcesMessage m;
+    m.scene = scene_;
+    m.object = name;
+    m.frame = job.frame;
+    m.topology_version = version;
+    m.status = code;
+    outbox_.publish_forces(m);
+  };
+  for (const auto& r : job.rejected) answer_unheld(r.object, r.version, r.code);
+  for (const auto& e : output.errors) {
+    const bool already = std::any_of(job.rejected.begin(), job.rejected.end(),
+                                     [&](const RejectedState& r) { return r.object == e.object; });
+    if (already) continue;
+    std::uint32_t version = 0;
+    for (const auto& s : job.states)
+      if (s.object == e.object) version = s.topology_version;
+    answer_unheld(e.object, version, status_code(e.error.code));
+  }
+}
+
+void SceneRunner::report_timing(double compute_ms, double latency_ms) {
+  if (summary_period_.count() <= 0.0) return;
+  compute_ms_.push_back(compute_ms);
+  latency_ms_.push_back(latency_ms);
+  const auto now = Clock::now();
+  if (now - summary_start_ < summary_period_) return;
+  const double seconds = std::chrono::duration<double>(now - summary_start_).count();
+  const std::size_t frames = compute_ms_.size();
+  const double c50 = percentile(compute_ms_, 0.5);
+  const double c99 = percentile(compute_ms_, 0.99);
+  const double l50 = percentile(latency_ms_, 0.5);
+  const double l99 = percentile(latency_ms_, 0.99);
+  spdlog::info(
+      "{}: {} frames in {:.1f} s; compute p50 {:.3f} ms p99 {:.3f} ms; first state -> "
+      "forces published p50 {:.3f} ms p99 {:.3f} ms",
+      scene_, frames, seconds, c50, c99, l50, l99);
+  compute_ms_.clear();
+  latency_ms_.clear();
+  summary_start_ = now;
+}
+
+}  // namespace tc::daemon

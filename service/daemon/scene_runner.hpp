@@ -1,0 +1,91 @@
+// The work of one scene: its tc::Pipeline and the jobs the reader thread sends it
+// (register or replace a topology, remove an object, run a frame), turned into
+// ContactForces, FrameStats and ServiceStatus messages. A SceneRunner runs one job at a
+// time (the Scheduler guarantees it); different scenes run in parallel. DDS-free.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "core/scene/pipeline.hpp"
+#include "frame_assembler.hpp"
+#include "outbox.hpp"
+
+namespace tc::daemon {
+
+struct TopologyJob {
+  std::string object;
+  std::uint32_t version = 0;
+  TetMesh mesh;
+  ObjectParams params;
+  Clock::time_point received{};
+};
+
+struct RemoveJob {
+  std::string object;
+};
+
+/// An object whose state the reader thread rejected in this frame.
+struct RejectedState {
+  std::string object;
+  std::uint32_t version = 0;
+  std::int32_t code = 0;  ///< STATUS_*
+};
+
+struct FrameJob {
+  std::int64_t frame = 0;
+  std::vector<FrameObjectInput> states;
+  std::vector<RejectedState> rejected;
+  Clock::time_point first_received{};
+  Clock::time_point dispatched{};
+  bool complete = false;
+  std::uint64_t dropped_frames = 0;  ///< set by the Scheduler when the job starts
+};
+
+using SceneJob = std::variant<TopologyJob, RemoveJob, FrameJob>;
+
+/// The pipeline's verdict on a topology, sent back to the reader thread's registry.
+struct TopologyResult {
+  std::string scene;
+  std::string object;
+  std::uint32_t version = 0;
+  bool ok = false;
+};
+using TopologyResultSink = std::function<void(TopologyResult)>;
+
+class SceneRunner {
+ public:
+  SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
+              TopologyResultSink on_topology, double timing_summary_period_s);
+
+  void run(SceneJob& job);
+
+  [[nodiscard]] const std::string& scene() const { return scene_; }
+
+ private:
+  void run_topology(TopologyJob& job);
+  void run_remove(const RemoveJob& job);
+  void run_frame(FrameJob& job);
+  void publish_answers(const FrameJob& job, const FrameOutput& output);
+  void report_timing(double compute_ms, double latency_ms);
+
+  std::string scene_;
+  Pipeline pipeline_;
+  Outbox& outbox_;
+  TopologyResultSink on_topology_;
+  std::map<std::string, std::uint32_t, std::less<>> active_;  ///< object -> version held
+  std::vector<double> stiffness_rows_;                        ///< reused per object
+
+  // Periodic timing summary.
+  std::chrono::duration<double> summary_period_;
+  Clock::time_point summary_start_ = Clock::now();
+  std::vector<double> compute_ms_;
+  std::vector<double> latency_ms_;
+};
+
+}  // namespace tc::daemon

@@ -1,0 +1,272 @@
+#include "service.hpp"
+
+#include <dds/dds.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <mutex>
+#include <vector>
+
+#include "dds_outbox.hpp"
+#include "protocol.hpp"
+#include "router.hpp"
+#include "samples.hpp"
+#include "scheduler.hpp"
+
+namespace tc::daemon {
+namespace {
+
+constexpr std::uint32_t kTakeBatch = 64;
+
+Error dds_failure(const std::string& call, dds_return_t rc) {
+  return Error{ErrorCode::kIo, call + ": " + protocol::dds_error(rc)};
+}
+
+}  // namespace
+
+std::string default_service_id() {
+  std::array<char, 256> host{};
+  if (gethostname(host.data(), host.size() - 1) != 0) host[0] = '\0';
+  return "tetcollided-" + std::string(host.data()) + "-" + std::to_string(getpid());
+}
+
+struct Service::Impl {
+  explicit Impl(DaemonConfig c)
+      : config(std::move(c)),
+        outbox(config.service_id.empty() ? default_service_id() : config.service_id,
+               config.partition) {}
+
+  DaemonConfig config;
+  DdsOutbox outbox;
+  std::unique_ptr<Scheduler> scheduler;
+  std::unique_ptr<Router> router;
+
+  dds_entity_t domain = 0;
+  dds_entity_t participant = 0;
+  dds_entity_t topology_reader = 0;
+  dds_entity_t state_reader = 0;
+  dds_entity_t waitset = 0;
+  dds_entity_t wakeup = 0;  // guard condition: stop requests and worker results
+
+  std::atomic<bool> stopping{false};
+  std::mutex inbox_mutex;
+  std::vector<TopologyResult> inbox;
+
+  Status create_reader(dds_entity_t subscriber, protocol::Topic topic, dds_entity_t& out) {
+    const auto qos = protocol::topic_qos(topic);
+    const dds_entity_t t = dds_create_topic(participant, protocol::topic_descriptor(topic),
+                                            protocol::topic_name(topic), qos.get(), nullptr);
+    if (t < 0)
+      return dds_failure(std::string("dds_create_topic(") + protocol::topic_name(topic) + ")", t);
+    out = dds_create_reader(subscriber, t, qos.get(), nullptr);
+    if (out < 0)
+      return dds_failure(std::string("dds_create_reader(") + protocol::topic_name(topic) + ")",
+                         out);
+    return {};
+  }
+
+  Status attach(dds_entity_t entity, const char* what) {
+    if (const dds_return_t rc = dds_waitset_attach(waitset, entity, entity); rc < 0)
+      return dds_failure(std::string("dds_waitset_attach(") + what + ")", rc);
+    return {};
+  }
+
+  void wake() {
+    if (const dds_return_t rc = dds_set_guardcondition(wakeup, true); rc < 0)
+      spdlog::error("dds_set_guardcondition: {}", protocol::dds_error(rc));
+  }
+
+  void post_result(TopologyResult r) {
+    {
+      std::lock_guard lock(inbox_mutex);
+      inbox.push_back(std::move(r));
+    }
+    wake();
+  }
+
+  /// Takes every available topology sample. Returns false on a DDS error.
+  bool take_topologies(Clock::time_point now) {
+    std::array<void*, kTakeBatch> samples{};
+    std::array<dds_sample_info_t, kTakeBatch> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n =
+          dds_take(topology_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
+      if (n < 0) {
+        spdlog::error("dds_take(MeshTopology): {}", protocol::dds_error(n));
+        return false;
+      }
+      for (dds_return_t i = 0; i < n; ++i) {
+        const auto* s = static_cast<const tetcollide_MeshTopology*>(samples[i]);
+        const dds_sample_info_t& info = infos[i];
+        if (info.valid_data) {
+          try {
+            router->on_topology(view_of(*s), now);
+          } catch (const std::exception& e) {  // allocation failure on a huge mesh
+            spdlog::error("{}/{}: topology not processed: {}", protocol::bounded_view(s->scene),
+                          protocol::bounded_view(s->object), e.what());
+          }
+        }
+        if (info.instance_state != DDS_IST_ALIVE)
+          router->on_topology_gone(protocol::bounded_view(s->scene),
+                                   protocol::bounded_view(s->object));
+      }
+      if (const dds_return_t rc = dds_return_loan(topology_reader, samples.data(), n); rc < 0)
+        spdlog::error("dds_return_loan(MeshTopology): {}", protocol::dds_error(rc));
+      if (n < static_cast<dds_return_t>(kTakeBatch)) return true;
+    }
+  }
+
+  bool take_states(Clock::time_point now) {
+    std::array<void*, kTakeBatch> samples{};
+    std::array<dds_sample_info_t, kTakeBatch> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n =
+          dds_take(state_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
+      if (n < 0) {
+        spdlog::error("dds_take(MeshState): {}", protocol::dds_error(n));
+        return false;
+      }
+      for (dds_return_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        try {
+          router->on_state(view_of(*static_cast<const tetcollide_MeshState*>(samples[i])), now);
+        } catch (const std::exception& e) {
+          spdlog::error("state not processed: {}", e.what());
+        }
+      }
+      if (const dds_return_t rc = dds_return_loan(state_reader, samples.data(), n); rc < 0)
+        spdlog::error("dds_return_loan(MeshState): {}", protocol::dds_error(rc));
+      if (n < static_cast<dds_return_t>(kTakeBatch)) return true;
+    }
+  }
+};
+
+Service::Service(DaemonConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+Service::~Service() {
+  if (impl_->scheduler) impl_->scheduler->shutdown(std::chrono::seconds(30));
+  impl_->scheduler.reset();
+  if (impl_->participant > 0) {
+    if (const dds_return_t rc = dds_delete(impl_->participant); rc < 0)
+      spdlog::error("dds_delete(participant): {}", protocol::dds_error(rc));
+  }
+  if (impl_->domain > 0) {
+    if (const dds_return_t rc = dds_delete(impl_->domain); rc < 0)
+      spdlog::error("dds_delete(domain): {}", protocol::dds_error(rc));
+  }
+}
+
+Status Service::start() {
+  Impl& s = *impl_;
+  const DaemonConfig& c = s.config;
+  if (!c.cyclonedds_config.empty()) {
+    s.domain = dds_create_domain(c.domain, c.cyclonedds_config.c_str());
+    if (s.domain < 0) return dds_failure("dds_create_domain(dds.cyclonedds_config)", s.domain);
+  }
+  s.participant = dds_create_participant(c.domain, nullptr, nullptr);
+  if (s.participant < 0)
+    return dds_failure("dds_create_participant(domain " + std::to_string(c.domain) + ")",
+                       s.participant);
+  if (Status st = s.outbox.create(s.participant); !st) return st;
+  s.outbox.set_state(ServiceState::kStarting, "starting");
+
+  s.scheduler =
+      std::make_unique<Scheduler>(c.threads, c.max_queued_frames, [&s](const std::string& scene) {
+        return std::make_unique<SceneRunner>(
+            scene, s.config.pipeline, s.outbox,
+            [&s](TopologyResult r) { s.post_result(std::move(r)); },
+            s.config.timing_summary_period_s);
+      });
+  s.router = std::make_unique<Router>(s.config, s.outbox, *s.scheduler);
+
+  const auto pqos = protocol::partition_qos(c.partition);
+  const dds_entity_t subscriber = dds_create_subscriber(s.participant, pqos.get(), nullptr);
+  if (subscriber < 0) return dds_failure("dds_create_subscriber", subscriber);
+  if (Status st = s.create_reader(subscriber, protocol::Topic::kTopology, s.topology_reader); !st)
+    return st;
+  if (Status st = s.create_reader(subscriber, protocol::Topic::kState, s.state_reader); !st)
+    return st;
+
+  s.waitset = dds_create_waitset(s.participant);
+  if (s.waitset < 0) return dds_failure("dds_create_waitset", s.waitset);
+  s.wakeup = dds_create_guardcondition(s.participant);
+  if (s.wakeup < 0) return dds_failure("dds_create_guardcondition", s.wakeup);
+  const dds_entity_t topo_cond = dds_create_readcondition(s.topology_reader, DDS_ANY_STATE);
+  if (topo_cond < 0) return dds_failure("dds_create_readcondition(MeshTopology)", topo_cond);
+  const dds_entity_t state_cond = dds_create_readcondition(s.state_reader, DDS_ANY_STATE);
+  if (state_cond < 0) return dds_failure("dds_create_readcondition(MeshState)", state_cond);
+  if (Status st = s.attach(s.wakeup, "guard condition"); !st) return st;
+  if (Status st = s.attach(topo_cond, "MeshTopology"); !st) return st;
+  if (Status st = s.attach(state_cond, "MeshState"); !st) return st;
+  return {};
+}
+
+Status Service::run() {
+  Impl& s = *impl_;
+  if (s.router == nullptr) return Error{ErrorCode::kInvalidArgument, "Service::run before start"};
+  const DaemonConfig& c = s.config;
+  s.outbox.set_state(ServiceState::kReady, "ready");
+  spdlog::info("tetcollided ready (service {}, domain {}, partition '{}', scenes {})",
+               s.outbox.service_id(), c.domain, c.partition,
+               c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")));
+
+  const auto heartbeat_period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(c.status_period_s));
+  auto next_heartbeat = Clock::now() + heartbeat_period;
+  Status result;
+  std::array<dds_attach_t, 4> triggered{};
+  while (!s.stopping.load()) {
+    auto now = Clock::now();
+    Clock::time_point until = next_heartbeat;
+    if (const auto d = s.router->next_deadline(); d && *d < until) until = *d;
+    const dds_duration_t timeout =
+        until <= now ? 0
+                     : std::chrono::duration_cast<std::chrono::nanoseconds>(until - now).count();
+    const dds_return_t n = dds_waitset_wait(s.waitset, triggered.data(), triggered.size(), timeout);
+    if (n < 0) {
+      result = dds_failure("dds_waitset_wait", n);
+      spdlog::error("{}", result.error().message);
+      break;
+    }
+    if (s.stopping.load()) break;
+    if (const dds_return_t rc = dds_set_guardcondition(s.wakeup, false); rc < 0)
+      spdlog::error("dds_set_guardcondition: {}", protocol::dds_error(rc));
+    now = Clock::now();
+    std::vector<TopologyResult> results;
+    {
+      std::lock_guard lock(s.inbox_mutex);
+      results.swap(s.inbox);
+    }
+    for (const auto& r : results) s.router->on_topology_result(r, now);
+    // Topologies first: a state whose topology arrived in the same batch is then known.
+    if (!s.take_topologies(now) || !s.take_states(now)) {
+      result = Error{ErrorCode::kIo, "reading from DDS failed (see the log)"};
+      break;
+    }
+    now = Clock::now();
+    s.router->tick(now);
+    if (now >= next_heartbeat) {
+      StatusMessage hb;
+      hb.kind = StatusKind::kHeartbeat;
+      hb.message = std::to_string(s.router->scene_count()) + " scenes";
+      s.outbox.publish_status(hb);
+      next_heartbeat = now + heartbeat_period;
+    }
+  }
+  s.outbox.set_state(ServiceState::kStopping, "stopping");
+  spdlog::info("tetcollided stopping");
+  if (!s.scheduler->shutdown(std::chrono::seconds(10)))
+    spdlog::warn("scene jobs still running after 10 s; waiting for them");
+  return result;
+}
+
+void Service::stop() {
+  impl_->stopping.store(true);
+  if (impl_->wakeup > 0) impl_->wake();
+}
+
+}  // namespace tc::daemon

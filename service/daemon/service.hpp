@@ -1,0 +1,40 @@
+// tetcollided's service: the DDS participant, the readers of MeshTopology and
+// MeshState, the reader loop (one thread, waitset) feeding the Router, the Scheduler
+// running the scenes' pipelines on TBB, and the Outbox writing the answers.
+#pragma once
+
+#include <memory>
+
+#include "config.hpp"
+#include "core/common/result.hpp"
+
+namespace tc::daemon {
+
+class Service {
+ public:
+  explicit Service(DaemonConfig config);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  /// Creates the DDS entities and publishes STARTING. Errors name the failing DDS call.
+  Status start();
+
+  /// Announces READY (ServiceStatus sample and the log line "tetcollided ready"), then
+  /// serves until stop() is called; announces STOPPING, lets running frames finish and
+  /// deletes the DDS entities. Returns the first unrecoverable DDS error, if any.
+  Status run();
+
+  /// Asks run() to return. Thread-safe; not async-signal-safe (call it from a thread
+  /// that waits for signals, not from a signal handler).
+  void stop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// "tetcollided-<hostname>-<pid>".
+std::string default_service_id();
+
+}  // namespace tc::daemon

@@ -1,0 +1,92 @@
+// Integration-test harness: a private DDS domain per test process, the real tetcollided
+// started as a child process (killed with the test if the test dies), and readiness
+// waits with bounded timeouts. Nothing here sleeps for a fixed time to "let things
+// settle": every wait is for an observable event.
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace tc::itest {
+
+/// A domain id no other test process uses at the same time: derived from the pid, in
+/// [10, 229]. Tests also run in their own network namespace when run_isolated.sh could
+/// create one (then only loopback exists and no other process can see the traffic).
+std::uint32_t private_domain();
+
+/// A fresh directory under the build tree's Testing/tmp (or /tmp), removed by the caller.
+std::filesystem::path make_temp_dir(const std::string& prefix);
+
+/// Path of a built program given by an environment variable set by CTest (TC_DAEMON,
+/// TC_CLI); fails the test when missing.
+std::string program_from_env(const char* variable);
+
+class DaemonProcess {
+ public:
+  /// `config_yaml` is written to a file in `dir` and passed with --config.
+  DaemonProcess(std::filesystem::path dir, std::uint32_t domain, std::string config_yaml);
+  ~DaemonProcess();
+  DaemonProcess(const DaemonProcess&) = delete;
+  DaemonProcess& operator=(const DaemonProcess&) = delete;
+
+  /// Starts the daemon and waits for its "tetcollided ready" log line. False on timeout
+  /// or early exit (the log is in log_text()).
+  bool start(std::chrono::milliseconds timeout = std::chrono::seconds(20));
+
+  /// Sends `sig` and waits for the exit. Returns the exit status as from waitpid, or -1
+  /// when it did not exit within `timeout` (it is then SIGKILLed).
+  int stop(int sig, std::chrono::milliseconds timeout = std::chrono::seconds(20));
+
+  /// SIGKILL, no clean-up by the daemon.
+  void kill_hard();
+
+  [[nodiscard]] bool running() const { return pid_ > 0; }
+  [[nodiscard]] std::string log_text() const;
+  [[nodiscard]] std::filesystem::path log_path() const { return log_; }
+  /// Waits until the log contains `text`. False on timeout.
+  bool wait_for_log(const std::string& text, std::chrono::milliseconds timeout) const;
+
+ private:
+  std::filesystem::path dir_;
+  std::filesystem::path config_;
+  std::filesystem::path log_;
+  std::uint32_t domain_;
+  pid_t pid_ = -1;
+  int starts_ = 0;
+};
+
+/// Any program run in the background (the recorder), killed with the test.
+class ChildProcess {
+ public:
+  ChildProcess() = default;
+  ~ChildProcess();
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  /// Starts `argv` with stdout and stderr appended to the given files.
+  bool start(const std::vector<std::string>& argv, const std::filesystem::path& out,
+             const std::filesystem::path& err);
+  /// Sends `sig`, waits for the exit; returns the exit code, or -1 (killed, timeout).
+  int stop(int sig, std::chrono::milliseconds timeout = std::chrono::seconds(20));
+
+ private:
+  pid_t pid_ = -1;
+};
+
+/// Waits until the file contains `text`. False on timeout.
+bool wait_for_file_text(const std::filesystem::path& path, const std::string& text,
+                        std::chrono::milliseconds timeout);
+
+/// Runs a program with arguments, stdout and stderr captured, killed after `timeout`.
+struct RunResult {
+  int exit_code = -1;  ///< -1 when killed by the timeout or a signal
+  std::string out;
+  std::string err;
+};
+RunResult run_program(const std::vector<std::string>& argv, std::chrono::milliseconds timeout);
+
+}  // namespace tc::itest

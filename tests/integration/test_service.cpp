@@ -1,0 +1,476 @@
+// The real tetcollided over DDS: readiness, streaming, bad input, cuts, removal, scenes,
+// signals. Each test runs its own daemon on a private domain.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <csignal>
+#include <fstream>
+#include <map>
+#include <set>
+#include <thread>
+
+#include "daemon_process.hpp"
+#include "scenes.hpp"
+#include "tetcollide/client.hpp"
+
+namespace tc::itest {
+namespace {
+
+using namespace std::chrono_literals;
+using client::Client;
+using client::StatusCode;
+
+const char* kConfig = R"(version: 1
+dds:
+  status_period_s: 0.2
+frames:
+  assembly_wait_ms: 50
+  unknown_object_grace_ms: 100
+limits:
+  max_nodes: 5000
+log:
+  level: info
+  timing_summary_period_s: 0
+)";
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = make_temp_dir("itest-service");
+    daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, kConfig);
+    ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  }
+  void TearDown() override {
+    if (HasFailure() && daemon_) std::cerr << "---- daemon log ----\n" << daemon_->log_text();
+    daemon_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+  std::unique_ptr<Client> connect(const std::string& scene,
+                                  std::chrono::milliseconds resend = 0ms) {
+    client::Options o;
+    o.domain = domain_;
+    o.scene = scene;
+    o.resend_after = resend;
+    auto c = Client::connect(o);
+    EXPECT_TRUE(c->wait_for_service(10s)) << "no READY service on domain " << domain_;
+    return c;
+  }
+  /// Waits for a status event matching `pred` (events are consumed).
+  template <typename Pred>
+  std::optional<client::StatusEvent> wait_status(Client& c, Pred pred,
+                                                 std::chrono::milliseconds timeout = 5s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      for (auto& e : c.take_status_events())
+        if (pred(e)) return e;
+      c.poll(20ms);
+    }
+    return std::nullopt;
+  }
+
+  std::uint32_t domain_ = private_domain();
+  std::filesystem::path dir_;
+  std::unique_ptr<DaemonProcess> daemon_;
+};
+
+void expect_sane(const client::ObjectForces& f, std::size_t nodes) {
+  EXPECT_EQ(f.status, 0) << f.object << " frame " << f.frame;
+  ASSERT_EQ(f.forces.size(), 3 * f.nodes.size());
+  for (std::size_t k = 0; k < f.nodes.size(); ++k) {
+    EXPECT_GE(f.nodes[k], 0);
+    EXPECT_LT(static_cast<std::size_t>(f.nodes[k]), nodes);
+    if (k > 0) {
+      EXPECT_LT(f.nodes[k - 1], f.nodes[k]);
+    }
+  }
+  for (const double v : f.forces) EXPECT_TRUE(std::isfinite(v));
+}
+
+TEST_F(ServiceTest, AnnouncesReadyAndStopsCleanlyOnSigterm) {
+  auto c = connect("ready");
+  bool ready_seen = false;
+  for (const auto& e : c->take_status_events())
+    ready_seen = ready_seen || (e.state == client::StatusEvent::State::kReady);
+  EXPECT_TRUE(ready_seen);
+  const int status = daemon_->stop(SIGTERM);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const std::string log = daemon_->log_text();
+  EXPECT_NE(log.find("received SIGTERM"), std::string::npos);
+  EXPECT_NE(log.find("tetcollided stopped"), std::string::npos);
+}
+
+TEST_F(ServiceTest, StopsCleanlyOnSigint) {
+  const int status = daemon_->stop(SIGINT);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+/// Two overlapping boxes that also reach below z = 0, moving a little every frame.
+struct TwoBoxes {
+  client::Mesh a = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  client::Mesh b = box_mesh(3, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
+  [[nodiscard]] std::vector<double> pos_a(std::int64_t f) const {
+    return translated(a, {0.0, 0.0, 0.001 * static_cast<double>(f % 50)});
+  }
+  [[nodiscard]] std::vector<double> pos_b(std::int64_t f) const {
+    return translated(b, {-0.002 * static_cast<double>(f % 50), 0.0, 0.0});
+  }
+};
+
+TEST_F(ServiceTest, EveryStreamedFrameIsAnswered) {
+  auto c = connect("stream");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  std::size_t with_forces = 0;
+  for (std::int64_t f = 0; f < 200; ++f) {
+    const auto pa = s.pos_a(f);
+    const auto pb = s.pos_b(f);
+    c->publish_states(f, {{"a", pa}, {"b", pb}});
+    const auto forces = c->wait_forces(f, 5s);
+    ASSERT_TRUE(forces) << "frame " << f << " not answered";
+    ASSERT_EQ(forces->frame, f);
+    ASSERT_EQ(forces->objects.size(), 2u);
+    expect_sane(*forces->find("a"), s.a.rest_positions.size() / 3);
+    expect_sane(*forces->find("b"), s.b.rest_positions.size() / 3);
+    EXPECT_EQ(forces->find("a")->topology_version, 1u);
+    with_forces += forces->find("a")->nodes.empty() ? 0 : 1;
+  }
+  EXPECT_GT(with_forces, 0u) << "overlapping boxes never produced a force";
+}
+
+TEST_F(ServiceTest, SameStatesGiveBitIdenticalForcesInAnotherScene) {
+  TwoBoxes s;
+  std::vector<std::vector<client::ObjectForces>> runs(2);
+  for (int run = 0; run < 2; ++run) {
+    auto c = connect("determinism-" + std::to_string(run));
+    c->register_object("a", s.a, {});
+    c->register_object("b", s.b, {});
+    ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+    ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+    for (std::int64_t f = 0; f < 30; ++f) {
+      const auto pa = s.pos_a(f);
+      const auto pb = s.pos_b(f);
+      c->publish_states(f, {{"a", pa}, {"b", pb}});
+      const auto forces = c->wait_forces(f, 5s);
+      ASSERT_TRUE(forces && forces->frame == f);
+      for (const auto& o : forces->objects) runs[run].push_back(o);
+    }
+  }
+  ASSERT_EQ(runs[0].size(), runs[1].size());
+  for (std::size_t i = 0; i < runs[0].size(); ++i) {
+    EXPECT_EQ(runs[0][i].nodes, runs[1][i].nodes);
+    ASSERT_EQ(runs[0][i].forces.size(), runs[1][i].forces.size());
+    EXPECT_EQ(0, std::memcmp(runs[0][i].forces.data(), runs[1][i].forces.data(),
+                             runs[0][i].forces.size() * sizeof(double)));
+  }
+}
+
+TEST_F(ServiceTest, ScenesRunInParallelAndIndependently) {
+  TwoBoxes s;
+  std::vector<std::thread> sims;
+  std::vector<int> answered(3, 0);
+  for (int k = 0; k < 3; ++k)
+    sims.emplace_back([&, k] {
+      auto c = connect("parallel-" + std::to_string(k));
+      c->register_object("a", s.a, {});
+      c->register_object("b", s.b, {});
+      if (!c->wait_registered("a", 10s).ok || !c->wait_registered("b", 10s).ok) return;
+      for (std::int64_t f = 0; f < 50; ++f) {
+        const auto pa = s.pos_a(f + k);
+        const auto pb = s.pos_b(f);
+        c->publish_states(f, {{"a", pa}, {"b", pb}});
+        const auto forces = c->wait_forces(f, 5s);
+        if (forces && forces->frame == f && forces->ok()) ++answered[static_cast<std::size_t>(k)];
+      }
+    });
+  for (auto& t : sims) t.join();
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(answered[static_cast<std::size_t>(k)], 50) << "scene " << k;
+}
+
+TEST_F(ServiceTest, BadInputIsRejectedAndGoodObjectsKeepTheirForces) {
+  auto c = connect("bad");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+
+  // Topologies: an index out of range (sample validation) and an inverted tet (found
+  // by the pipeline when it builds the object).
+  client::Mesh out_of_range = box_mesh(1, {3, 3, 3}, {4, 4, 4});
+  out_of_range.tets[5] = 1000;
+  c->register_object("bad_index", out_of_range, {});
+  const auto r1 = c->wait_registered("bad_index", 10s);
+  ASSERT_TRUE(r1.done);
+  EXPECT_FALSE(r1.ok);
+  EXPECT_EQ(r1.code, static_cast<int>(StatusCode::kInvalidMesh)) << r1.message;
+  client::Mesh inverted = box_mesh(1, {3, 3, 3}, {4, 4, 4});
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  c->register_object("inverted", inverted, {});
+  const auto r2 = c->wait_registered("inverted", 10s);
+  ASSERT_TRUE(r2.done);
+  EXPECT_FALSE(r2.ok);
+  EXPECT_EQ(r2.code, static_cast<int>(StatusCode::kInvalidMesh)) << r2.message;
+  client::ObjectParams bad_params;
+  bad_params.stiffness = -1.0;
+  c->register_object("bad_params", box_mesh(1, {3, 3, 3}, {4, 4, 4}), bad_params);
+  const auto r3 = c->wait_registered("bad_params", 10s);
+  ASSERT_TRUE(r3.done);
+  EXPECT_EQ(r3.code, static_cast<int>(StatusCode::kInvalidArgument)) << r3.message;
+  // Over limits.max_nodes (5000): 18^3 cells have 6859 nodes.
+  c->register_object("huge", box_mesh(18, {5, 5, 5}, {6, 6, 6}), {});
+  const auto r4 = c->wait_registered("huge", 10s);
+  ASSERT_TRUE(r4.done);
+  EXPECT_EQ(r4.code, static_cast<int>(StatusCode::kOversized)) << r4.message;
+
+  struct BadState {
+    const char* what;
+    std::vector<double> positions;
+    std::uint32_t version;
+    StatusCode code;
+  };
+  auto nan_positions = s.pos_b(0);
+  nan_positions[7] = std::nan("");
+  auto inf_positions = s.pos_b(0);
+  inf_positions[0] = INFINITY;
+  auto short_positions = s.pos_b(0);
+  short_positions.resize(short_positions.size() - 3);
+  const std::vector<BadState> cases = {
+      {"wrong length", short_positions, 0, StatusCode::kInvalidArgument},
+      {"not a multiple of 3", std::vector<double>(10, 0.0), 0, StatusCode::kInvalidArgument},
+      {"NaN", nan_positions, 0, StatusCode::kInvalidMesh},
+      {"infinity", inf_positions, 0, StatusCode::kInvalidMesh},
+      {"stale version", s.pos_b(0), 77, StatusCode::kStaleVersion},
+      {"oversized", std::vector<double>(3 * 6000, 0.0), 0, StatusCode::kOversized},
+  };
+  std::int64_t frame = 0;
+  for (const auto& bad : cases) {
+    SCOPED_TRACE(bad.what);
+    ++frame;
+    const auto pa = s.pos_a(frame);
+    client::ObjectState sa{"a", pa};
+    client::ObjectState sb{"b", bad.positions};
+    sb.topology_version = bad.version;
+    const std::vector<client::ObjectState> states{sa, sb};
+    c->publish_states(frame, states);
+    const auto forces = c->wait_forces(frame, 5s);
+    ASSERT_TRUE(forces);
+    ASSERT_EQ(forces->frame, frame);
+    ASSERT_NE(forces->find("a"), nullptr);
+    expect_sane(*forces->find("a"), s.a.rest_positions.size() / 3);
+    ASSERT_NE(forces->find("b"), nullptr);
+    EXPECT_EQ(forces->find("b")->status, static_cast<int>(bad.code));
+    EXPECT_TRUE(forces->find("b")->nodes.empty());
+    const auto e = wait_status(*c, [&](const client::StatusEvent& ev) {
+      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "b" && ev.frame == frame;
+    });
+    ASSERT_TRUE(e) << "no status error for frame " << frame;
+    EXPECT_EQ(e->code, static_cast<int>(bad.code)) << e->message;
+    EXPECT_EQ(e->scene, "bad");
+  }
+  // A state for an object nobody registered: status error, and the scene goes on.
+  {
+    ++frame;
+    const auto pa = s.pos_a(frame);
+    const auto pb = s.pos_b(frame);
+    const auto ghost = s.pos_b(frame);
+    c->publish_states(frame, {{"a", pa}, {"b", pb}, {"ghost", ghost}});
+    const auto forces = c->wait_forces(frame, 5s);
+    ASSERT_TRUE(forces && forces->frame == frame);
+    EXPECT_TRUE(forces->ok());
+    const auto e = wait_status(*c, [&](const client::StatusEvent& ev) {
+      return ev.kind == client::StatusEvent::Kind::kError && ev.object == "ghost";
+    });
+    ASSERT_TRUE(e);
+    EXPECT_EQ(e->code, static_cast<int>(StatusCode::kUnknownObject));
+  }
+  // The daemon is still alive and serving.
+  ++frame;
+  const auto pa = s.pos_a(frame);
+  const auto pb = s.pos_b(frame);
+  c->publish_states(frame, {{"a", pa}, {"b", pb}});
+  const auto forces = c->wait_forces(frame, 5s);
+  ASSERT_TRUE(forces && forces->frame == frame && forces->ok());
+  EXPECT_TRUE(daemon_->running());
+  EXPECT_NE(daemon_->log_text().find("rejected"), std::string::npos);
+}
+
+TEST_F(ServiceTest, ACutReplacesTheTopologyBetweenFrames) {
+  auto c = connect("cut");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  const auto pa0 = s.pos_a(0);
+  const auto pb0 = s.pos_b(0);
+  c->publish_states(0, {{"a", pa0}, {"b", pb0}});
+  ASSERT_TRUE(c->wait_forces(0, 5s));
+  // Cut b: a coarser mesh with a different node count, version 2.
+  const client::Mesh b2 = box_mesh(2, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
+  EXPECT_EQ(c->register_object("b", b2, {}), 2u);
+  // No waiting for the registration: a state that overtakes its topology is held.
+  const auto pa1 = s.pos_a(1);
+  const auto pb1 = translated(b2, {0, 0, 0});
+  c->publish_states(1, {{"a", pa1}, {"b", pb1}});
+  const auto forces = c->wait_forces(1, 5s);
+  ASSERT_TRUE(forces && forces->frame == 1);
+  ASSERT_TRUE(forces->ok());
+  EXPECT_EQ(forces->find("b")->topology_version, 2u);
+  expect_sane(*forces->find("b"), b2.rest_positions.size() / 3);
+  // The old version is stale now.
+  client::ObjectState old{"b", pb0};
+  old.topology_version = 1;
+  const std::vector<client::ObjectState> states{{"a", pa1}, old};
+  c->publish_states(2, states);
+  const auto f2 = c->wait_forces(2, 5s);
+  ASSERT_TRUE(f2 && f2->frame == 2);
+  EXPECT_EQ(f2->find("b")->status, static_cast<int>(StatusCode::kStaleVersion));
+}
+
+TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
+  auto c = connect("remove");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  c->remove_object("b");
+  const auto e = wait_status(*c, [](const client::StatusEvent& ev) {
+    return ev.kind == client::StatusEvent::Kind::kRemoved && ev.object == "b";
+  });
+  ASSERT_TRUE(e);
+  // Frames no longer wait for b.
+  const auto pa = s.pos_a(0);
+  c->publish_states(0, {{"a", pa}});
+  const auto forces = c->wait_forces(0, 5s);
+  ASSERT_TRUE(forces && forces->frame == 0);
+  EXPECT_EQ(forces->objects.size(), 1u);
+  // A client that goes away takes its objects with it.
+  {
+    auto other = Client::connect(domain_, "remove");
+    ASSERT_TRUE(other->wait_for_service(10s));
+    other->register_object("c", box_mesh(1, {4, 4, 4}, {5, 5, 5}), {});
+    ASSERT_TRUE(other->wait_registered("c", 10s).ok);
+  }
+  EXPECT_TRUE(daemon_->wait_for_log("remove/c: removed", 10s));
+}
+
+TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
+  auto c = connect("static");
+  TwoBoxes s;
+  client::ObjectParams floor;
+  floor.is_static = true;
+  c->register_object("floor", s.b, floor);
+  c->register_object("a", s.a, {});
+  ASSERT_TRUE(c->wait_registered("floor", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  for (std::int64_t f = 0; f < 20; ++f) {
+    const auto pa = s.pos_a(f);
+    c->publish_states(f, {{"a", pa}});
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto forces = c->wait_forces(f, 5s);
+    ASSERT_TRUE(forces && forces->frame == f);
+    // Answered without the 50 ms assembly wait.
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, 45ms) << "frame " << f;
+  }
+}
+
+}  // namespace
+}  // namespace tc::itest
+
+namespace tc::itest {
+namespace {
+
+// The daemon's command line: usage errors exit 2, bad configuration exits 3 with the
+// file, line and column; neither starts DDS.
+TEST(DaemonCommandLine, UsageAndConfigurationErrors) {
+  using namespace std::chrono_literals;
+  const std::string daemon = program_from_env("TC_DAEMON");
+  const auto dir = make_temp_dir("itest-cli");
+  const auto bad = dir / "bad.yaml";
+  std::ofstream(bad) << "version: 1\nframes:\n  assembly_wait_ms: -5\n";
+  auto r = run_program({daemon, "--config", bad.string()}, 20s);
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("bad.yaml:3:21: 'frames.assembly_wait_ms' must be in"), std::string::npos)
+      << r.err;
+  const auto unknown = dir / "unknown.yaml";
+  std::ofstream(unknown) << "version: 1\nlog:\n  colour: red\n";
+  r = run_program({daemon, "--config", unknown.string()}, 20s);
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("unknown.yaml:3:3: unknown key 'log.colour'"), std::string::npos) << r.err;
+  r = run_program({daemon, "--domain", "999"}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--config", (dir / "missing.yaml").string()}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--log-level", "loud"}, 20s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  r = run_program({daemon, "--version"}, 20s);
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("tetcollided 0.1.0"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tc::itest
+
+namespace tc::itest {
+namespace {
+
+// Several daemons share one domain: scene patterns split the scenes between them and a
+// partition separates a third; each scene is served by exactly one daemon.
+TEST(SharedLoad, ScenePatternsAndPartitionsSplitTheScenes) {
+  using namespace std::chrono_literals;
+  const std::uint32_t domain = private_domain();
+  const auto dir = make_temp_dir("itest-shared");
+  const auto make_dir = [&](const char* name) {
+    std::filesystem::create_directories(dir / name);
+    return dir / name;
+  };
+  DaemonProcess a(make_dir("a"), domain,
+                  "version: 1\ndds:\n  service_id: svc-a\n  scenes: [\"a-*\"]\n");
+  DaemonProcess b(make_dir("b"), domain,
+                  "version: 1\ndds:\n  service_id: svc-b\n  scenes: [\"b-*\"]\n");
+  DaemonProcess lab(make_dir("lab"), domain,
+                    "version: 1\ndds:\n  service_id: svc-lab\n  partition: lab\n");
+  ASSERT_TRUE(a.start()) << a.log_text();
+  ASSERT_TRUE(b.start()) << b.log_text();
+  ASSERT_TRUE(lab.start()) << lab.log_text();
+
+  const auto serve = [&](const std::string& scene, const std::string& partition) {
+    client::Options o;
+    o.domain = domain;
+    o.scene = scene;
+    o.partition = partition;
+    auto c = client::Client::connect(o);
+    EXPECT_TRUE(c->wait_for_service(10s));
+    c->register_object("box", box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+    const auto r = c->wait_registered("box", partition.empty() && scene[0] == 'c' ? 1s : 10s);
+    std::set<std::string> registrars;
+    for (const auto& e : c->take_status_events())
+      if (e.kind == client::StatusEvent::Kind::kRegistered && e.scene == scene)
+        registrars.insert(e.service_id);
+    return std::make_pair(r.ok, registrars);
+  };
+  const auto [a_ok, a_by] = serve("a-1", "");
+  EXPECT_TRUE(a_ok);
+  EXPECT_EQ(a_by, (std::set<std::string>{"svc-a"}));
+  const auto [b_ok, b_by] = serve("b-7", "");
+  EXPECT_TRUE(b_ok);
+  EXPECT_EQ(b_by, (std::set<std::string>{"svc-b"}));
+  const auto [lab_ok, lab_by] = serve("c-1", "lab");
+  EXPECT_TRUE(lab_ok);
+  EXPECT_EQ(lab_by, (std::set<std::string>{"svc-lab"}));
+  const auto [c_ok, c_by] = serve("c-1", "");  // no daemon serves c-* in the default partition
+  EXPECT_FALSE(c_ok);
+  EXPECT_TRUE(c_by.empty());
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tc::itest

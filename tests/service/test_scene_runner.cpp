@@ -1,0 +1,169 @@
+// service/daemon/scene_runner: a scene's jobs on the real pipeline turned into answers:
+// one ContactForces per object per frame, rejected objects answered with their code,
+// registrations and removals reported, stats per frame.
+#include "scene_runner.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "outbox_recorder.hpp"
+#include "test_meshes.hpp"
+#include "tetcollide.h"
+
+namespace tc::daemon {
+namespace {
+
+TetMesh box_at(double x0) {
+  return tc::test::structured_box(3, 3, 3, Eigen::Vector3d(x0, 0, 0),
+                                  Eigen::Vector3d(x0 + 1, 1, 1));
+}
+
+class SceneRunnerTest : public ::testing::Test {
+ protected:
+  SceneRunnerTest()
+      : runner_(
+            "s", PipelineConfig{}, outbox_,
+            [this](TopologyResult r) { results_.push_back(std::move(r)); }, 0.0) {}
+
+  void add(const std::string& object, std::uint32_t version, TetMesh mesh) {
+    SceneJob job = TopologyJob{object, version, std::move(mesh), ObjectParams{}, Clock::now()};
+    runner_.run(job);
+  }
+  void frame(std::int64_t f, std::vector<FrameObjectInput> states,
+             std::vector<RejectedState> rejected = {}) {
+    FrameJob j;
+    j.frame = f;
+    j.states = std::move(states);
+    j.rejected = std::move(rejected);
+    j.first_received = j.dispatched = Clock::now();
+    j.complete = true;
+    SceneJob job = std::move(j);
+    runner_.run(job);
+  }
+
+  test::OutboxRecorder outbox_;
+  std::vector<TopologyResult> results_;
+  SceneRunner runner_;
+};
+
+TEST_F(SceneRunnerTest, RegistrationIsReported) {
+  add("a", 1, box_at(0.0));
+  ASSERT_EQ(results_.size(), 1u);
+  EXPECT_TRUE(results_[0].ok);
+  ASSERT_EQ(outbox_.status.size(), 1u);
+  EXPECT_EQ(outbox_.status[0].kind, StatusKind::kRegistered);
+  EXPECT_EQ(outbox_.status[0].object, "a");
+  EXPECT_EQ(outbox_.status[0].topology_version, 1u);
+  EXPECT_NE(outbox_.status[0].message.find("64 nodes, 162 tets"), std::string::npos)
+      << outbox_.status[0].message;
+}
+
+TEST_F(SceneRunnerTest, InvertedTopologyIsRejectedAndReported) {
+  TetMesh m = box_at(0.0);
+  std::swap(m.tets[3][0], m.tets[3][1]);
+  add("a", 1, m);
+  ASSERT_EQ(results_.size(), 1u);
+  EXPECT_FALSE(results_[0].ok);
+  ASSERT_EQ(outbox_.status.size(), 1u);
+  EXPECT_EQ(outbox_.status[0].kind, StatusKind::kError);
+  EXPECT_EQ(outbox_.status[0].code, tetcollide_STATUS_INVALID_MESH);
+}
+
+TEST_F(SceneRunnerTest, EveryObjectIsAnsweredEveryFrame) {
+  add("a", 1, box_at(0.0));
+  add("b", 1, box_at(0.8));  // overlaps a by 0.2
+  add("far", 1, box_at(10.0));
+  const TetMesh a = box_at(0.0);
+  const TetMesh b = box_at(0.8);
+  frame(0, {FrameObjectInput{"a", 1, a.positions}, FrameObjectInput{"b", 1, b.positions}});
+  const auto answers = outbox_.forces_of("s", 0);
+  ASSERT_EQ(answers.size(), 3u);  // far sent no state and is answered too
+  EXPECT_EQ(answers[0].object, "a");
+  EXPECT_EQ(answers[1].object, "b");
+  EXPECT_EQ(answers[2].object, "far");
+  for (const auto& f : answers) {
+    EXPECT_EQ(f.status, 0);
+    EXPECT_EQ(f.version, 1u);
+    EXPECT_EQ(f.forces.size(), 3 * f.nodes.size());
+    EXPECT_TRUE(std::is_sorted(f.nodes.begin(), f.nodes.end()));
+    for (const double v : f.forces) EXPECT_TRUE(std::isfinite(v));
+  }
+  EXPECT_FALSE(answers[0].nodes.empty()) << "overlapping boxes, no force on a";
+  EXPECT_FALSE(answers[1].nodes.empty()) << "overlapping boxes, no force on b";
+  EXPECT_TRUE(answers[2].nodes.empty());
+  ASSERT_EQ(outbox_.stats.size(), 1u);
+  EXPECT_EQ(outbox_.stats[0].objects, 3u);
+  EXPECT_EQ(outbox_.stats[0].states, 2u);
+}
+
+TEST_F(SceneRunnerTest, RejectedStatesAreAnsweredWithTheirCode) {
+  add("a", 1, box_at(0.0));
+  add("b", 1, box_at(0.8));
+  const TetMesh a = box_at(0.0);
+  frame(3, {FrameObjectInput{"a", 1, a.positions}},
+        {RejectedState{"b", 1, tetcollide_STATUS_INVALID_MESH},
+         RejectedState{"ghost", 0, tetcollide_STATUS_UNKNOWN_OBJECT}});
+  const auto answers = outbox_.forces_of("s", 3);
+  ASSERT_EQ(answers.size(), 3u);
+  EXPECT_EQ(answers[0].object, "a");
+  EXPECT_EQ(answers[0].status, 0);
+  EXPECT_EQ(answers[1].object, "b");
+  EXPECT_EQ(answers[1].status, tetcollide_STATUS_INVALID_MESH);
+  EXPECT_TRUE(answers[1].nodes.empty());
+  EXPECT_EQ(answers[2].object, "ghost");
+  EXPECT_EQ(answers[2].status, tetcollide_STATUS_UNKNOWN_OBJECT);
+  EXPECT_EQ(outbox_.stats[0].rejected, 2u);
+}
+
+TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {
+  add("a", 1, box_at(0.0));
+  // An inverted state: the pipeline rejects a's frame; a is answered with the code.
+  TetMesh inverted = box_at(0.0);
+  inverted.positions.row(0) *= -1.0;  // mirror: every tet inverted
+  frame(1, {FrameObjectInput{"a", 1, inverted.positions}});
+  const auto answers = outbox_.forces_of("s", 1);
+  ASSERT_EQ(answers.size(), 1u);
+  EXPECT_NE(answers[0].status, 0);
+  bool reported = false;
+  for (const auto& s : outbox_.status)
+    reported = reported || (s.kind == StatusKind::kError && s.object == "a" && s.frame == 1);
+  EXPECT_TRUE(reported);
+}
+
+TEST_F(SceneRunnerTest, CutAndRemove) {
+  add("a", 1, box_at(0.0));
+  add("a", 2,
+      tc::test::structured_box(2, 2, 2, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1)));
+  const TetMesh a2 =
+      tc::test::structured_box(2, 2, 2, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
+  frame(5, {FrameObjectInput{"a", 2, a2.positions}});
+  auto answers = outbox_.forces_of("s", 5);
+  ASSERT_EQ(answers.size(), 1u);
+  EXPECT_EQ(answers[0].version, 2u);
+  EXPECT_EQ(answers[0].status, 0);
+  SceneJob remove = RemoveJob{"a"};
+  runner_.run(remove);
+  EXPECT_EQ(outbox_.status.back().kind, StatusKind::kRemoved);
+  frame(6, {});
+  EXPECT_TRUE(outbox_.forces_of("s", 6).empty());
+}
+
+TEST_F(SceneRunnerTest, SameInputSameBits) {
+  add("a", 1, box_at(0.0));
+  add("b", 1, box_at(0.8));
+  const TetMesh a = box_at(0.0);
+  const TetMesh b = box_at(0.8);
+  for (int f = 0; f < 2; ++f)
+    frame(f, {FrameObjectInput{"a", 1, a.positions}, FrameObjectInput{"b", 1, b.positions}});
+  const auto f0 = outbox_.forces_of("s", 0);
+  const auto f1 = outbox_.forces_of("s", 1);
+  ASSERT_EQ(f0.size(), f1.size());
+  for (std::size_t i = 0; i < f0.size(); ++i) {
+    EXPECT_EQ(f0[i].nodes, f1[i].nodes);
+    EXPECT_EQ(f0[i].forces, f1[i].forces);
+  }
+}
+
+}  // namespace
+}  // namespace tc::daemon
