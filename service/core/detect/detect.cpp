@@ -186,7 +186,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   int slab_axis = 0;
   if (cull_extent.y() < cull_extent[slab_axis]) slab_axis = 1;
   if (cull_extent.z() < cull_extent[slab_axis]) slab_axis = 2;
-  const double rel = options_.relative_tolerance;
+  const double rel = relative_tolerance();
   const auto filter = [&](const CollisionBody& body, std::vector<Index>& subset,
                           std::vector<Aabb>& boxes) {
     const std::size_t m = body.tets_.size();
@@ -348,7 +348,7 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                                std::vector<IntrudingNode>& out) {
   collect_features(marked, x, false);
   const Positions& px = *x.positions_;
-  const double rel = options_.relative_tolerance;
+  const double rel = relative_tolerance();
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(node_parts_, chunks);
   detail::for_chunks(features_.size(), kFeatureChunk,
@@ -410,7 +410,7 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
                                std::vector<IntrudingEdge>& out) {
   collect_features(marked, x, true);
   const Positions& px = *x.positions_;
-  const double rel = options_.relative_tolerance;
+  const double rel = relative_tolerance();
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(edge_parts_, chunks);
   detail::for_chunks(

@@ -139,6 +139,10 @@ class Detector {
   void intruding_edges(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
                        const CollisionBody& y, const Geometry& gy, std::vector<IntrudingEdge>& out);
   void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
+  /// options_.relative_tolerance, with negative or NaN read as 0.
+  [[nodiscard]] double relative_tolerance() const {
+    return options_.relative_tolerance > 0.0 ? options_.relative_tolerance : 0.0;
+  }
 
   DetectOptions options_;
   BroadPhase broad_;
