@@ -62,8 +62,8 @@ std::unique_ptr<Case> make_box37() {
 
 std::unique_ptr<Case> load(const std::string& file) {
   // data_path("x") is <source>/tests/data/x.
-  const auto path = tc::test::data_path("x").parent_path().parent_path().parent_path() /
-                    "data" / "meshes" / file;
+  const auto path =
+      tc::test::data_path("x").parent_path().parent_path().parent_path() / "data" / "meshes" / file;
   if (!std::filesystem::exists(path)) return nullptr;
   auto mesh = tc::read_mesh(path);
   if (!mesh) return nullptr;
@@ -92,8 +92,7 @@ void exact(benchmark::State& state, const Case* c, int threads) {
 // Shallow contact (docs/DEPTH_MAPS.md, "Lazy update"): the tets with a node less than
 // `fraction` of the object's height above its lowest point, as if it sat that deep in
 // a floor.
-void lazy(benchmark::State& state, const Case* c, tc::DepthSolverOptions options,
-          double fraction) {
+void lazy(benchmark::State& state, const Case* c, tc::DepthSolverOptions options, double fraction) {
   const double lo = c->mesh.positions.row(2).minCoeff();
   const double hi = c->mesh.positions.row(2).maxCoeff();
   const double plane = lo + fraction * (hi - lo);
@@ -132,21 +131,21 @@ void register_case(const Case* c, bool big) {
   const auto reg = [](const std::string& name, auto&& fn) {
     return benchmark::RegisterBenchmark(name.c_str(), fn)->Unit(benchmark::kMillisecond);
   };
-  for (const auto& [q, qn] : {std::pair{QueueKind::kBucket, "bucket"},
-                              std::pair{QueueKind::kRadix, "radix"},
-                              std::pair{QueueKind::kBinaryHeap, "binary_heap"}})
+  for (const auto& [q, qn] :
+       {std::pair{QueueKind::kBucket, "bucket"}, std::pair{QueueKind::kRadix, "radix"},
+        std::pair{QueueKind::kBinaryHeap, "binary_heap"}})
     reg("cpfm/" + n + "/" + qn, [c, q = q](benchmark::State& s) {
       full(s, c, {.method = DepthMethod::kCpfm, .queue = q});
     });
-  for (const auto& [v, vn] : {std::pair{CffmVariant::kDescent, "descent"},
-                              std::pair{CffmVariant::kPaper, "paper"},
-                              std::pair{CffmVariant::kPaperDescent, "paper_descent"},
-                              std::pair{CffmVariant::kMultiStart, "multi"}})
-    reg("cffm/" + n + "/" + vn, [c, v = v](benchmark::State& s) {
-      full(s, c, {.method = DepthMethod::kCffm, .cffm = v});
-    });
-  reg("exact/" + n + "/threads:1", [c](benchmark::State& s) { exact(s, c, 1); })
-      ->Iterations(big ? 3 : 20);
+  for (const auto& [v, vn] :
+       {std::pair{CffmVariant::kDescent, "descent"}, std::pair{CffmVariant::kPaper, "paper"},
+        std::pair{CffmVariant::kPaperDescent, "paper_descent"},
+        std::pair{CffmVariant::kMultiStart, "multi"}})
+    reg("cffm/" + n + "/" + vn,
+        [c, v = v](benchmark::State& s) { full(s, c, {.method = DepthMethod::kCffm, .cffm = v}); });
+  reg("exact/" + n + "/threads:1", [c](benchmark::State& s) {
+    exact(s, c, 1);
+  })->Iterations(big ? 3 : 20);
   reg("exact/" + n + "/threads:all", [c](benchmark::State& s) {
     exact(s, c, static_cast<int>(tbb::this_task_arena::max_concurrency()));
   })->Iterations(big ? 3 : 20);
@@ -168,8 +167,8 @@ int main(int argc, char** argv) {
   static std::vector<std::unique_ptr<Case>> cases;
   cases.push_back(make_box37());
   register_case(cases.back().get(), true);
-  for (const char* file : {"generated/large.msh", "generated/large_box.msh", "torus.msh",
-                           "ball.msh"}) {
+  for (const char* file :
+       {"generated/large.msh", "generated/large_box.msh", "torus.msh", "ball.msh"}) {
     if (auto c = load(file)) {
       cases.push_back(std::move(c));
       register_case(cases.back().get(), std::string(file).starts_with("generated"));
