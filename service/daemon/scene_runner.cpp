@@ -74,6 +74,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
   msg.scene = scene_;
   msg.object = job.object;
   msg.topology_version = job.version;
+  msg.topology_timestamp = job.source_timestamp;
   if (st) {
     active_[job.object] = job.version;
     msg.kind = StatusKind::kRegistered;
