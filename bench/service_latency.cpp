@@ -1,14 +1,18 @@
 // Service benchmark: the real tetcollided over DDS on this host.
 //
-//   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--json]
+//   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--depth M]
+//                   [--bob M] [--lockstep | --wait] [--json]
 //   service_latency --large [--daemon PATH] [--json]
 //
-// Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting in
-// data/meshes/box.msh, the box static) is registered, then the torus' states are
-// published open-loop at --rate (default 1000 Hz) for --frames frames (default 5000,
-// after 200 warm-up frames). For each frame it measures state published -> forces
-// received (client side) and the pipeline's compute time (FrameStats.compute_ms), and
-// reports p50/p99 of both and of their difference (the service's overhead).
+// Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting
+// --depth (default 5 mm) deep on data/meshes/box.msh, the box static) is registered,
+// then the torus' states (bobbing by +-(--bob)) are published open-loop at --rate
+// (default 1000 Hz) for --frames frames (default 5000, after 200 warm-up frames), or
+// with --lockstep each frame after the previous one's answer (at most --rate; --wait:
+// the same with Client::wait_forces instead of the forces callback). For each frame it measures
+// state published -> forces received (client side) and the pipeline's compute time
+// (FrameStats.compute_ms), and reports p50/p99 of both and of their difference (the service's
+// overhead).
 //
 // Large mode: two 303,918-tet structured boxes (37^3 cells x 6 tets) are registered one
 // after the other; it reports each one's registration time (register_object -> the
@@ -25,9 +29,11 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -130,6 +136,9 @@ class StatsReader {
         if (tc::protocol::bounded_view(s->scene) != scene_) continue;
         compute_ms[s->frame] = s->compute_ms;
         queue_ms[s->frame] = s->queue_ms;
+        in_service_ms[s->frame] = s->assembly_ms + s->queue_ms + s->compute_ms + s->publish_ms;
+        stages[s->frame] = {s->broad_ms, s->narrow_ms, s->depth_ms, s->response_ms};
+        contacts[s->frame] = s->contacts;
         publish_ms[s->frame] = s->publish_ms;
         dropped = s->dropped_frames;
       }
@@ -139,8 +148,12 @@ class StatsReader {
     }
   }
   std::map<std::int64_t, double> compute_ms;
-  std::map<std::int64_t, double> queue_ms;    ///< frame dispatched -> pipeline started
-  std::map<std::int64_t, double> publish_ms;  ///< forces written
+  std::map<std::int64_t, double> queue_ms;  ///< frame dispatched -> pipeline started
+  /// first state taken -> last answer written (assembly + queue + compute + publish)
+  std::map<std::int64_t, double> in_service_ms;
+  std::map<std::int64_t, double> publish_ms;             ///< forces written
+  std::map<std::int64_t, std::array<double, 4>> stages;  ///< broad, narrow, depth, response
+  std::map<std::int64_t, std::uint64_t> contacts;
   std::uint64_t dropped = 0;
 
  private:
@@ -149,7 +162,20 @@ class StatsReader {
   dds_entity_t reader_ = 0;
 };
 
-int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
+struct LatencyArgs {
+  int frames = 5000;
+  double rate = 1000.0;
+  double depth = 0.005;   ///< torus penetration into the box at rest, metres
+  double bob = 0.002;     ///< amplitude of the torus' vertical motion, metres
+  bool lockstep = false;  ///< wait for each answer before the next frame
+  /// Lock-step with Client::wait_forces on the publishing thread instead of the forces
+  /// callback (one thread switch less on the client side).
+  bool wait = false;
+};
+
+int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
+  const int frames = args.frames;
+  const double rate = args.rate;
   const std::string meshes = std::string(TC_SOURCE_DIR) + "/data/meshes/";
   auto torus = tc::read_mesh(meshes + "torus.msh");
   auto box = tc::read_mesh(meshes + "box.msh");
@@ -159,8 +185,8 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
     return 1;
   }
   // The box (1 x 1 x 0.3, centred) is the static floor; the torus (major radius 0.3,
-  // minor 0.1, axis z) rests on it, 3 cm deep, and bobs by +-1 cm.
-  const auto torus_mesh = to_client(*torus, {0.0, 0.0, 0.15 + 0.1 - 0.03});
+  // minor 0.1, axis z) rests on it `depth` deep and bobs by +-`bob`.
+  const auto torus_mesh = to_client(*torus, {0.0, 0.0, 0.15 + 0.1 - args.depth});
   const auto box_mesh = to_client(*box, {0.0, 0.0, 0.0});
   const std::string scene = "torus_in_box";
   StatsReader stats(domain, scene);
@@ -185,17 +211,20 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
   }
 
   std::mutex mutex;
+  std::condition_variable answered_cv;
   std::map<std::int64_t, Clock::time_point> sent;
   std::map<std::int64_t, Clock::time_point> received;
   std::map<std::int64_t, std::size_t> force_nodes;
-  c->set_forces_callback([&](const tc::client::FrameForces& f) {
+  const auto on_forces = [&](const tc::client::FrameForces& f) {
     const auto now = Clock::now();
     std::lock_guard lock(mutex);
     received.emplace(f.frame, now);
     std::size_t n = 0;
     for (const auto& obj : f.objects) n += obj.nodes.size();
     force_nodes[f.frame] = n;
-  });
+    answered_cv.notify_all();
+  };
+  if (!args.wait) c->set_forces_callback(on_forces);
   const int warmup = 200;
   const auto period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
@@ -204,7 +233,7 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
   for (int f = 0; f < warmup + frames; ++f) {
     next += period;
     std::this_thread::sleep_until(next);
-    const double dz = 0.01 * std::sin(2.0 * M_PI * static_cast<double>(f) / 500.0);
+    const double dz = args.bob * std::sin(2.0 * M_PI * static_cast<double>(f) / 500.0);
     for (std::size_t i = 2; i < positions.size(); i += 3)
       positions[i] = torus_mesh.rest_positions[i] + dz;
     const auto t = Clock::now();
@@ -213,6 +242,15 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
       sent[f] = t;
     }
     c->publish_states(f, {{"torus", positions}});
+    if (args.wait) {
+      if (const auto forces = c->wait_forces(f, 5s); forces && forces->frame == f)
+        on_forces(*forces);
+      next = std::max(next, Clock::now());
+    } else if (args.lockstep) {
+      std::unique_lock lock(mutex);
+      answered_cv.wait_for(lock, 5s, [&] { return received.count(f) != 0; });
+      next = std::max(next, Clock::now());
+    }
   }
   // Let the last answers arrive.
   const auto deadline = Clock::now() + 5s;
@@ -223,10 +261,12 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
     }
     std::this_thread::sleep_for(1ms);
   }
-  c->set_forces_callback(nullptr);
+  if (!args.wait) c->set_forces_callback(nullptr);
   stats.drain();
 
-  std::vector<double> latency, compute, overhead, queue, publish;
+  std::vector<double> latency, compute, overhead, queue, publish, transport;
+  std::array<std::vector<double>, 4> stage;
+  std::vector<double> contact_counts;
   std::size_t answered = 0, with_forces = 0;
   for (int f = warmup; f < warmup + frames; ++f) {
     const auto r = received.find(f);
@@ -241,6 +281,9 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
       overhead.push_back(l - cm->second);
       queue.push_back(stats.queue_ms[f]);
       publish.push_back(stats.publish_ms[f]);
+      transport.push_back(l - stats.in_service_ms[f]);
+      for (std::size_t k = 0; k < 4; ++k) stage[k].push_back(stats.stages[f][k]);
+      contact_counts.push_back(static_cast<double>(stats.contacts[f]));
     }
   }
   const nlohmann::json out{{"mode", "latency"},
@@ -250,6 +293,10 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
                            {"box_nodes", box->num_nodes()},
                            {"box_tets", box->num_tets()},
                            {"rate_hz", rate},
+                           {"lockstep", args.lockstep || args.wait},
+                           {"wait_forces", args.wait},
+                           {"depth_m", args.depth},
+                           {"bob_m", args.bob},
                            {"frames", frames},
                            {"answered", answered},
                            {"frames_with_forces", with_forces},
@@ -261,21 +308,39 @@ int run_latency(std::uint32_t domain, int frames, double rate, bool json) {
                            {"overhead_ms_p50", percentile(overhead, 0.5)},
                            {"overhead_ms_p99", percentile(overhead, 0.99)},
                            {"queue_ms_p50", percentile(queue, 0.5)},
-                           {"publish_ms_p50", percentile(publish, 0.5)}};
+                           {"publish_ms_p50", percentile(publish, 0.5)},
+                           {"outside_service_ms_p50", percentile(transport, 0.5)},
+                           {"broad_ms_p50", percentile(stage[0], 0.5)},
+                           {"narrow_ms_p50", percentile(stage[1], 0.5)},
+                           {"depth_ms_p50", percentile(stage[2], 0.5)},
+                           {"response_ms_p50", percentile(stage[3], 0.5)},
+                           {"contacts_p50", percentile(contact_counts, 0.5)}};
   if (json) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     std::printf(
-        "torus-in-box (%d + %d tets) at %.0f Hz, %d frames: %zu answered, %zu with forces\n",
-        torus->num_tets(), box->num_tets(), rate, frames, answered, with_forces);
+        "torus-in-box (%d + %d tets, %.1f mm deep) at %.0f Hz%s, %d frames: %zu answered, %zu "
+        "with forces\n",
+        torus->num_tets(), box->num_tets(), 1000.0 * args.depth, rate,
+        args.wait       ? " lock-step (wait_forces)"
+        : args.lockstep ? " lock-step (callback)"
+                        : "",
+        frames, answered, with_forces);
     std::printf("latency (state published -> forces received): p50 %.3f ms, p99 %.3f ms\n",
                 out["latency_ms_p50"].get<double>(), out["latency_ms_p99"].get<double>());
     std::printf("compute (FrameStats.compute_ms):              p50 %.3f ms, p99 %.3f ms\n",
                 out["compute_ms_p50"].get<double>(), out["compute_ms_p99"].get<double>());
     std::printf("overhead (latency - compute, per frame):      p50 %.3f ms, p99 %.3f ms\n",
                 out["overhead_ms_p50"].get<double>(), out["overhead_ms_p99"].get<double>());
-    std::printf("in the service: queue p50 %.3f ms, publish p50 %.3f ms\n",
-                out["queue_ms_p50"].get<double>(), out["publish_ms_p50"].get<double>());
+    std::printf(
+        "in the service: queue p50 %.3f ms, publish p50 %.3f ms; outside it (DDS both ways, "
+        "client) p50 %.3f ms\n",
+        out["queue_ms_p50"].get<double>(), out["publish_ms_p50"].get<double>(),
+        out["outside_service_ms_p50"].get<double>());
+    std::printf("stages p50: broad %.3f, narrow %.3f, depth %.3f, response %.3f ms; %g contacts\n",
+                out["broad_ms_p50"].get<double>(), out["narrow_ms_p50"].get<double>(),
+                out["depth_ms_p50"].get<double>(), out["response_ms_p50"].get<double>(),
+                out["contacts_p50"].get<double>());
   }
   return answered == static_cast<std::size_t>(frames) ? 0 : 1;
 }
@@ -311,19 +376,26 @@ int run_large(std::uint32_t domain, const Daemon* daemon, bool json) {
                        {"register_ms", ms},
                        {"service_message", r.message}});
   }
-  // One frame with both, so the per-frame buffers exist too.
+  const double rss_registered = daemon != nullptr ? daemon->rss_mb() : 0.0;
+  // One frame with both (overlapping by 0.1 m: a large contact region), so the per-frame
+  // buffers exist too.
   const tc::TetMesh m =
       tc::test::structured_box(n, n, n, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
   const auto m0 = to_client(m, {0.0, 0.0, 0.0});
   const auto m1 = to_client(m, {0.9, 0.0, 0.0});
   c->publish_states(0, {{"large_0", m0.rest_positions}, {"large_1", m1.rest_positions}});
+  const auto frame_start = Clock::now();
   const auto f = c->wait_forces(0, 120s);
+  const double frame_ms =
+      std::chrono::duration<double, std::milli>(Clock::now() - frame_start).count();
   const double rss_after = daemon != nullptr ? daemon->rss_mb() : 0.0;
   const nlohmann::json out{{"mode", "large"},
                            {"objects", objects},
                            {"first_frame_answered", f.has_value()},
+                           {"first_frame_ms", frame_ms},
                            {"daemon_rss_mb_before", rss_before},
-                           {"daemon_rss_mb_after", rss_after}};
+                           {"daemon_rss_mb_registered", rss_registered},
+                           {"daemon_rss_mb_after_frame", rss_after}};
   if (json) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
@@ -331,8 +403,11 @@ int run_large(std::uint32_t domain, const Daemon* daemon, bool json) {
       std::printf("%s: %d tets, %d nodes registered in %.1f ms\n",
                   obj["object"].get<std::string>().c_str(), obj["tets"].get<int>(),
                   obj["nodes"].get<int>(), obj["register_ms"].get<double>());
-    std::printf("first frame answered: %s\n", f ? "yes" : "no");
-    std::printf("daemon RSS: %.1f MB before, %.1f MB with both objects\n", rss_before, rss_after);
+    std::printf("first frame (0.1 m overlap) answered: %s, in %.1f ms\n", f ? "yes" : "no",
+                frame_ms);
+    std::printf(
+        "daemon RSS: %.1f MB before, %.1f MB with both registered, %.1f MB after the frame\n",
+        rss_before, rss_registered, rss_after);
   }
   return f ? 0 : 1;
 }
@@ -343,14 +418,19 @@ int main(int argc, char** argv) {
   CLI::App app{"tetcollided latency and memory benchmark"};
   std::string daemon_path;
   std::uint32_t domain = 0;
-  int frames = 5000;
-  double rate = 1000.0;
+  LatencyArgs latency;
   bool large = false;
   bool json = false;
   app.add_option("--daemon", daemon_path, "Start this tetcollided on a private domain");
   app.add_option("--domain", domain, "Domain of a running service (without --daemon)");
-  app.add_option("--frames", frames, "Measured frames (after 200 warm-up frames)");
-  app.add_option("--rate", rate, "State publication rate, Hz");
+  app.add_option("--frames", latency.frames, "Measured frames (after 200 warm-up frames)");
+  app.add_option("--rate", latency.rate, "State publication rate, Hz");
+  app.add_option("--depth", latency.depth, "Torus penetration into the box at rest, m");
+  app.add_option("--bob", latency.bob, "Amplitude of the torus' vertical motion, m");
+  app.add_flag("--lockstep", latency.lockstep,
+               "Wait for each frame's answer before the next (at most --rate)");
+  app.add_flag("--wait", latency.wait,
+               "Lock-step with Client::wait_forces instead of the forces callback");
   app.add_flag("--large", large, "Register two 300k-tet objects; time and memory");
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
@@ -366,7 +446,7 @@ int main(int argc, char** argv) {
   }
   try {
     const int rc = large ? run_large(domain, daemon_path.empty() ? nullptr : &daemon, json)
-                         : run_latency(domain, frames, rate, json);
+                         : run_latency(domain, latency, json);
     return rc;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

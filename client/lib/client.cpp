@@ -10,6 +10,7 @@
 #include <mutex>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include "protocol.hpp"
 #include "tetcollide.h"
@@ -83,7 +84,11 @@ struct Client::Impl {
   std::map<std::int64_t, std::vector<std::string>> sent;                // frame -> objects
   std::map<std::int64_t, std::map<std::string, ObjectForces>> answers;  // frame -> answers
   std::set<std::int64_t> delivered;                                     // callback done
-  std::map<std::pair<std::string, std::uint32_t>, Registration> registrations;
+  /// Verdicts by (object, version, topology sample timestamp); timestamp 0 from a service
+  /// that does not echo it.
+  std::map<std::tuple<std::string, std::uint32_t, std::int64_t>, Registration> registrations;
+  /// Source timestamp of this client's last write of each (object, version).
+  std::map<std::pair<std::string, std::uint32_t>, std::int64_t> written;
   std::map<std::string, StatusEvent::State> services;  // alive services
   std::vector<StatusEvent> events;
 
@@ -241,10 +246,11 @@ struct Client::Impl {
           e.topology_version = s->topology_version;
           e.frame = s->frame;
           e.message = protocol::bounded_view(s->message);
+          e.topology_timestamp = s->topology_timestamp;
           if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
           if (e.scene == options.scene && e.topology_version != 0 && e.frame < 0 &&
               (e.kind == StatusEvent::Kind::kRegistered || e.kind == StatusEvent::Kind::kError)) {
-            Registration& r = registrations[{e.object, e.topology_version}];
+            Registration& r = registrations[{e.object, e.topology_version, e.topology_timestamp}];
             r.done = true;
             r.ok = e.kind == StatusEvent::Kind::kRegistered;
             r.code = e.code;
@@ -422,25 +428,38 @@ std::uint32_t Client::register_object(const std::string& object, const Mesh& mes
   s.params.is_static = params.is_static;
   s.params.depth = static_cast<tetcollide_DepthMethod>(params.depth);
   s.params.response = static_cast<tetcollide_ResponseKind>(params.response);
+  // The write's timestamp comes back in the service's verdict: a verdict on an earlier
+  // write of the same version (kept in the status history) is not mistaken for this one.
+  const dds_time_t stamp = dds_time();
   {
     // Known before the write so answers for it are kept as soon as they can arrive.
     std::lock_guard lock(m.mutex);
     m.versions[object] = v;
-    m.registrations.erase({object, v});
+    m.written[{object, v}] = stamp;
   }
-  check_rc(dds_write(m.topology_writer, &s), "dds_write(MeshTopology " + object + ")");
+  check_rc(dds_write_ts(m.topology_writer, &s, stamp), "dds_write(MeshTopology " + object + ")");
   return v;
 }
 
 Registration Client::wait_registered(const std::string& object, std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
   const std::uint32_t v = version(object);
+  std::int64_t stamp = 0;
+  {
+    std::lock_guard lock(m.mutex);
+    const auto w = m.written.find({object, v});
+    if (w != m.written.end()) stamp = w->second;
+  }
   Registration out;
   m.wait_until(Clock::now() + timeout, [&] {
-    const auto it = m.registrations.find({object, v});
-    if (it == m.registrations.end()) return false;
-    out = it->second;
-    return true;
+    for (const std::int64_t ts : {stamp, std::int64_t{0}}) {
+      const auto it = m.registrations.find({object, v, ts});
+      if (it != m.registrations.end()) {
+        out = it->second;
+        return true;
+      }
+    }
+    return false;
   });
   return out;
 }

@@ -166,6 +166,7 @@ Expected<RecordSummary> record(const RecordOptions& options, const std::atomic<b
               e.topology_version = s->topology_version;
               e.frame = s->frame;
               e.message = protocol::bounded_view(s->message);
+              e.topology_timestamp = s->topology_timestamp;
               st = writer.write(r);
               ++summary.status;
               break;

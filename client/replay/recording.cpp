@@ -145,7 +145,8 @@ json encode(const StatusRecord& r) {
           {"object", e.object},
           {"topology_version", e.topology_version},
           {"frame", e.frame},
-          {"message", e.message}};
+          {"message", e.message},
+          {"topology_timestamp", e.topology_timestamp}};
 }
 
 Record decode(const json& j) {
@@ -210,6 +211,7 @@ Record decode(const json& j) {
     e.topology_version = j.at("topology_version").get<std::uint32_t>();
     e.frame = j.at("frame").get<std::int64_t>();
     e.message = j.at("message").get<std::string>();
+    e.topology_timestamp = j.value("topology_timestamp", std::int64_t{0});
     return r;
   }
   throw std::invalid_argument("unknown record type '" + type + "'");

@@ -79,7 +79,7 @@ class Parser {
     for (const auto& c : choices)
       if (c == v) return v;
     std::string list;
-    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+    for (const auto& c : choices) list += (list.empty() ? "\"" : ", \"") + c + "\"";
     fail(ErrorCode::kInvalidArgument, node,
          "'" + key + "' must be one of " + list + ", got '" + v + "'");
   }
@@ -176,7 +176,7 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
     p.section(n, k,
               {{"broad_phase",
                 [&](const YAML::Node& v, const std::string& kk) {
-                  c.pipeline.broad_phase = p.choice(v, kk, {"grid", "hash", "sap", "bvh"});
+                  c.pipeline.broad_phase = p.choice(v, kk, {"", "grid", "hash", "sap", "bvh"});
                 }},
                {"compute_stiffness",
                 [&](const YAML::Node& v, const std::string& kk) {

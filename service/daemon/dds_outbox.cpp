@@ -137,6 +137,7 @@ void DdsOutbox::publish_status(const StatusMessage& m) {
   s.frame = m.frame;
   copy_cut(s.message, m.message);
   s.protocol_version = tetcollide_PROTOCOL_VERSION;
+  s.topology_timestamp = m.topology_timestamp;
   if (const dds_return_t rc = dds_write(status_writer_, &s); rc < 0)
     write_failed("ServiceStatus", rc);
 }

@@ -51,6 +51,7 @@ struct StatusMessage {
   std::uint32_t topology_version = 0;
   std::int64_t frame = -1;
   std::string message;
+  std::int64_t topology_timestamp = 0;  ///< verdicts on a topology: its source timestamp
 };
 
 class Outbox {

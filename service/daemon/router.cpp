@@ -44,7 +44,7 @@ const SceneRegistry* Router::registry(std::string_view scene) const {
 
 void Router::report(std::int32_t code, std::string_view scene, std::string_view object,
                     std::uint32_t version, std::int64_t frame, const std::string& message,
-                    Clock::time_point now) {
+                    Clock::time_point now, std::int64_t topology_timestamp) {
   // Every rejection goes to the status topic; the log gets one line per (scene, object,
   // code) per window so a client sending bad frames at 1 kHz cannot flood it.
   StatusMessage msg;
@@ -55,6 +55,7 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
   msg.topology_version = version;
   msg.frame = frame;
   msg.message = message;
+  msg.topology_timestamp = topology_timestamp;
   outbox_.publish_status(msg);
 
   if (throttle_.size() > kMaxThrottleEntries) throttle_.clear();
@@ -91,7 +92,8 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
   }
   if (Status st = validate_topology(t, config_.limits); !st) {
     report(status_code(st.error().code), t.scene, t.object, t.version, -1,
-           "topology version " + std::to_string(t.version) + ": " + st.error().message, now);
+           "topology version " + std::to_string(t.version) + ": " + st.error().message, now,
+           t.source_timestamp);
     return;
   }
   auto it = scenes_.find(t.scene);
@@ -100,7 +102,7 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
       report(tetcollide_STATUS_OVERSIZED, t.scene, t.object, t.version, -1,
              "limits.max_scenes = " + std::to_string(config_.limits.max_scenes) +
                  " scenes are served already",
-             now);
+             now, t.source_timestamp);
       return;
     }
     it = scenes_.emplace(std::string(t.scene), Scene(assembly_wait_)).first;
@@ -112,7 +114,7 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
     report(tetcollide_STATUS_OVERSIZED, t.scene, t.object, t.version, -1,
            "limits.max_objects_per_scene = " +
                std::to_string(config_.limits.max_objects_per_scene) + " reached",
-           now);
+           now, t.source_timestamp);
     close_if_empty(it);
     return;
   }
@@ -129,6 +131,7 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
   job.mesh = to_mesh(t);
   job.params = to_params(t.params);
   job.received = now;
+  job.source_timestamp = t.source_timestamp;
   spdlog::info("{}/{}: topology version {} received ({} nodes, {} tets)", it->first, object,
                t.version, info.nodes, t.tets.size() / 4);
   jobs_.post(it->first, std::move(job));

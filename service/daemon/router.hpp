@@ -81,7 +81,7 @@ class Router {
                   std::uint32_t version, std::int32_t code);
   void report(std::int32_t code, std::string_view scene, std::string_view object,
               std::uint32_t version, std::int64_t frame, const std::string& message,
-              Clock::time_point now);
+              Clock::time_point now, std::int64_t topology_timestamp = 0);
   void close_if_empty(std::map<std::string, Scene, std::less<>>::iterator it);
 
   const DaemonConfig& config_;

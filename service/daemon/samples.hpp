@@ -37,6 +37,8 @@ struct TopologyView {
   std::span<const double> rest_positions;  ///< 3n, metres, x0 y0 z0 x1 ...
   std::span<const std::int32_t> tets;      ///< 4m, 0-based node indices
   WireParams params;
+  /// The sample's source timestamp (ns, writer's clock), echoed in the verdict; 0 = none.
+  std::int64_t source_timestamp = 0;
 };
 
 /// A MeshState sample.

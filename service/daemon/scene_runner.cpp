@@ -1,5 +1,6 @@
 #include "scene_runner.hpp"
 
+#include <malloc.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -13,6 +14,9 @@ namespace {
 
 static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double),
               "ObjectForces::forces must be contiguous xyz triples");
+
+/// Topologies at least this large return freed memory to the OS after their build.
+constexpr std::size_t kTrimAfterTets = 100'000;
 
 double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
@@ -62,10 +66,15 @@ void SceneRunner::run_topology(TopologyJob& job) {
     st = Error{ErrorCode::kInvalidArgument, std::string("internal error: ") + e.what()};
   }
   const double build_ms = ms_between(start, Clock::now());
+  // Building a large object frees big temporaries (the received sample, the build's
+  // scratch arrays); glibc keeps freed heap memory resident unless asked to return it.
+  // Once per topology version, so the few milliseconds this takes do not matter.
+  if (static_cast<std::size_t>(tets) >= kTrimAfterTets) malloc_trim(0);
   StatusMessage msg;
   msg.scene = scene_;
   msg.object = job.object;
   msg.topology_version = job.version;
+  msg.topology_timestamp = job.source_timestamp;
   if (st) {
     active_[job.object] = job.version;
     msg.kind = StatusKind::kRegistered;

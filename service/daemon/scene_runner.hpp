@@ -24,6 +24,7 @@ struct TopologyJob {
   TetMesh mesh;
   ObjectParams params;
   Clock::time_point received{};
+  std::int64_t source_timestamp = 0;  ///< of the MeshTopology sample, echoed in the verdict
 };
 
 struct RemoveJob {

@@ -103,7 +103,9 @@ struct Service::Impl {
         const dds_sample_info_t& info = infos[i];
         if (info.valid_data) {
           try {
-            router->on_topology(view_of(*s), now);
+            TopologyView view = view_of(*s);
+            view.source_timestamp = info.source_timestamp;
+            router->on_topology(view, now);
           } catch (const std::exception& e) {  // allocation failure on a huge mesh
             spdlog::error("{}/{}: topology not processed: {}", protocol::bounded_view(s->scene),
                           protocol::bounded_view(s->object), e.what());

@@ -361,6 +361,26 @@ TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
   EXPECT_TRUE(daemon_->wait_for_log("remove/c: removed", 10s));
 }
 
+TEST_F(ServiceTest, AVerdictIsMatchedToItsOwnWrite) {
+  // Client 1 registers "x" version 1 (accepted) and leaves; the status history keeps
+  // that verdict. Client 2 registers "x" version 1 with an inverted mesh: it must get
+  // the rejection of its own write, not the old acceptance.
+  {
+    auto first = connect("verdict");
+    first->register_object("x", box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+    ASSERT_TRUE(first->wait_registered("x", 10s).ok);
+  }
+  ASSERT_TRUE(daemon_->wait_for_log("verdict/x: removed", 10s));
+  auto second = connect("verdict");
+  client::Mesh inverted = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  EXPECT_EQ(second->register_object("x", inverted, {}, 1), 1u);
+  const auto r = second->wait_registered("x", 10s);
+  ASSERT_TRUE(r.done);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.code, static_cast<int>(StatusCode::kInvalidMesh)) << r.message;
+}
+
 TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
   auto c = connect("static");
   TwoBoxes s;

@@ -94,6 +94,7 @@ TEST(Recording, EveryRecordTypeRoundTrips) {
   status.event.topology_version = 2;
   status.event.frame = 11;
   status.event.message = "quote \" backslash \\ newline \n tab \t";
+  status.event.topology_timestamp = 1795322045221727123;
   const RemoveRecord remove{4.0, "s", "o"};
 
   const auto path = temp_file("roundtrip.jsonl");
@@ -132,6 +133,7 @@ TEST(Recording, EveryRecordTypeRoundTrips) {
   EXPECT_EQ(st2.event.message, status.event.message);
   EXPECT_EQ(st2.event.kind, client::StatusEvent::Kind::kError);
   EXPECT_EQ(st2.event.sequence_number, 99u);
+  EXPECT_EQ(st2.event.topology_timestamp, 1795322045221727123);
   const auto& r2 = std::get<RemoveRecord>((*back)[4]);
   EXPECT_EQ(r2.object, "o");
 }

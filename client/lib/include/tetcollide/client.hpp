@@ -123,6 +123,8 @@ struct StatusEvent {
   std::uint32_t topology_version = 0;
   std::int64_t frame = -1;
   std::string message;
+  /// Verdicts on a topology: the source timestamp of the MeshTopology sample judged.
+  std::int64_t topology_timestamp = 0;
 };
 
 /// Outcome of a registration as the service reported it.
