@@ -260,6 +260,7 @@ void add_bench_command(CLI::App& app, Context& ctx) {
                    "TBB threads (the exact reference is parallel; 0 = all cores)")
       ->capture_default_str();
   distance->callback([&ctx, args] { ctx.exit_code = run_bench_distance(*args); });
+  add_bench_response_command(*bench, ctx);
 }
 
 }  // namespace tc::cli
