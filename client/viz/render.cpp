@@ -2,6 +2,7 @@
 // shading, wireframe overlay, supersampling, colour bar.
 #include "render.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -203,8 +204,9 @@ void raster_triangle(Frame& fb, const View& view, const CamVertex& a, const CamV
     nz[i] = v[i]->n * iz[i];
     tz[i] = v[i]->t * iz[i];
   }
-  const Eigen::Vector3d face_n =
-      (v[1]->p - v[0]->p).cross(v[2]->p - v[0]->p).normalized();  // camera space
+  // Camera space (right, up, forward) is left-handed: the cross product of two camera-space
+  // edges is minus the camera-space image of the world normal.
+  const Eigen::Vector3d face_n = -(v[1]->p - v[0]->p).cross(v[2]->p - v[0]->p).normalized();
   for (int y = y0; y <= y1; ++y) {
     const double py = y + 0.5;
     for (int x = x0; x <= x1; ++x) {
@@ -291,6 +293,9 @@ void draw_surface(Frame& fb, const View& view, const Surface& s, const RasterPar
     const auto& t = s.triangles[i];
     const Eigen::Vector3d fn =
         (P.col(t[1]) - P.col(t[0])).cross(P.col(t[2]) - P.col(t[0])).normalized();
+    // Transparent surfaces show their front faces only (else a closed surface would be
+    // blended twice and look denser than its opacity).
+    if (rp.opacity < 1.0f && fn.dot(P.col(t[0]) - view.eye) > 0) continue;
     CamVertex cv[3];
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3d d = P.col(t[k]) - view.eye;
