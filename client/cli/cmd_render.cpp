@@ -67,8 +67,10 @@ Expected<Object> load(const std::string& file) {
 }
 
 /// The per-node values of `name` for one object: a field of the file, or a built-in
-/// (x, y, z, quality = worst quality of the tets around the node). Empty if unknown.
-std::vector<double> field_values(const Object& o, const std::string& name) {
+/// (x, y, z of the drawn, offset positions; quality = worst quality of the tets around
+/// the node). Empty if unknown.
+std::vector<double> field_values(const Object& o, const Eigen::Matrix3Xd& positions,
+                                 const std::string& name) {
   for (const VtuField& f : o.fields)
     if (f.name == name) return f.values;
   const auto n = static_cast<std::size_t>(o.mesh.num_nodes());
@@ -76,7 +78,7 @@ std::vector<double> field_values(const Object& o, const std::string& name) {
   if (name == "x" || name == "y" || name == "z") {
     const int k = name[0] - 'x';
     v.resize(n);
-    for (std::size_t i = 0; i < n; ++i) v[i] = o.mesh.positions(k, static_cast<Eigen::Index>(i));
+    for (std::size_t i = 0; i < n; ++i) v[i] = positions(k, static_cast<Eigen::Index>(i));
   } else if (name == "quality") {
     v.assign(n, std::numeric_limits<double>::quiet_NaN());
     for (const Tet& t : o.mesh.tets) {
@@ -147,7 +149,7 @@ int run_render(const RenderArgs& args) {
     s.base_color = kPalette[i % kPalette.size()];
     s.wireframe = args.wireframe;
     if (!args.field.empty()) {
-      s.scalar = field_values(o, args.field);
+      s.scalar = field_values(o, positions[i], args.field);
       if (s.scalar.empty())
         return report_error(Error{ErrorCode::kInvalidArgument,
                                   args.files[i] + ": no point field '" + args.field + "'"});

@@ -106,8 +106,15 @@ TEST(Png, RejectsEmptyImageAndUnwritablePath) {
   EXPECT_NE(st.error().message.find("/nonexistent-dir/x.png"), std::string::npos);
 }
 
-// Headlight shading of a face seen straight on: base * (ambient + diffuse) + specular
-// = base * 1.0 + 0.12 (see render.cpp), so base (0.2, 0.4, 0.6) gives (82, 133, 184).
+// Pure headlight shading of a face seen straight on: base * (ambient + diffuse) +
+// specular = base * 1.0 + 0.12 (see render.cpp), so base (0.2, 0.4, 0.6) gives
+// (82, 133, 184).
+RenderOptions headlight() {
+  RenderOptions o;
+  o.light = {0, 0, -1};
+  return o;
+}
+
 TEST(Render, CubeFromPlusXShowsShadedFaceAndBackgroundCorners) {
   const TetMesh cube = test::cube_six_tets(1.0);
   const Eigen::Matrix3Xd p = cube.positions;
@@ -118,7 +125,7 @@ TEST(Render, CubeFromPlusXShowsShadedFaceAndBackgroundCorners) {
   cam.target = {0.5, 0.5, 0.5};
   cam.width = 160;
   cam.height = 120;
-  const Image img = render(std::span<const Surface>(&s, 1), cam);
+  const Image img = render(std::span<const Surface>(&s, 1), cam, headlight());
   ASSERT_EQ(img.width, 160);
   ASSERT_EQ(img.height, 120);
   EXPECT_TRUE(near_rgb(img.pixel(80, 60), {82, 133, 184}, 2))
@@ -141,9 +148,9 @@ TEST(Render, ObliqueFaceIsDarkerThanFaceOn) {
   cam.target = {0.5, 0.5, 0.5};
   cam.width = cam.height = 100;
   cam.eye = {5.0, 0.5, 0.5};
-  const int straight = render(std::span<const Surface>(&s, 1), cam).pixel(50, 50)[0];
+  const int straight = render(std::span<const Surface>(&s, 1), cam, headlight()).pixel(50, 50)[0];
   cam.eye = {5.0, 3.5, 0.5};  // the +x face at 34 degrees, the +y face at 56
-  const Image img = render(std::span<const Surface>(&s, 1), cam);
+  const Image img = render(std::span<const Surface>(&s, 1), cam, headlight());
   const Image bg = empty_render(100, 100);
   // Both faces are visible and lit less than face-on.
   int darker = 0;
@@ -189,7 +196,7 @@ TEST(Render, TransparentSurfaceBlendsWithWhatIsBehind) {
   cam.width = cam.height = 200;
   const std::vector<Surface> both = {near_s, far_s};
   // Half of the red face (255, 31, 31) over the blue face (31, 31, 255): front faces only.
-  const Rgb c = render(both, cam).pixel(100, 100);
+  const Rgb c = render(both, cam, headlight()).pixel(100, 100);
   EXPECT_TRUE(near_rgb(c, {143, 31, 143}, 3)) << int(c[0]) << " " << int(c[1]) << " " << int(c[2]);
 }
 
@@ -225,7 +232,7 @@ TEST(Render, ScalarFieldUsesTheColourMapAndDrawsAColourBar) {
   cam.target = {0.5, 0.5, 0.5};
   cam.width = 400;
   cam.height = 300;
-  const Image img = render(std::span<const Surface>(&s, 1), cam);
+  const Image img = render(std::span<const Surface>(&s, 1), cam, headlight());
   // Face-on: colour * 1.0 + 0.12 specular, clamped: viridis(1) = (253, 231, 37).
   EXPECT_TRUE(near_rgb(img.pixel(200, 150), {255, 255, 68}, 2));
   // The colour bar on the right holds the map's bottom colour near its lower end.
