@@ -44,6 +44,14 @@ void BM_RenderTorusOverBox(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderTorusOverBox)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
+// Baseline in the same run: the same frame with nothing to draw (background fill and
+// the 2x2 downsampling only).
+void BM_RenderEmpty(benchmark::State& state) {
+  const Scene& s = torus_over_box();
+  for (auto _ : state) benchmark::DoNotOptimize(tc::viz::render({}, s.camera).rgb.data());
+}
+BENCHMARK(BM_RenderEmpty)->Unit(benchmark::kMillisecond);
+
 void BM_EncodePng(benchmark::State& state) {
   Scene& s = torus_over_box();
   const tc::viz::Image img = tc::viz::render(s.surfaces, s.camera);
