@@ -300,6 +300,32 @@ TEST(Render, HostileInputNeverCrashes) {
   EXPECT_TRUE(fit_camera({}, {nan, 0, 0}, 10, 10).eye.allFinite());
 }
 
+class ScaleAndOffset : public ::testing::TestWithParam<std::pair<double, double>> {};
+
+// The same cube scaled by 1e-6 or moved by 1e6, framed by fit_camera, gives the same
+// picture as the unit cube (up to rounding).
+TEST_P(ScaleAndOffset, PictureDoesNotDependOnUnits) {
+  const auto [scale, offset] = GetParam();
+  const TetMesh cube = test::cube_six_tets(1.0);
+  const Eigen::Matrix3Xd ref_p = cube.positions;
+  const Eigen::Matrix3Xd p = (cube.positions * scale).array() + offset;
+  Surface ref = surface_of(cube, ref_p), s = surface_of(cube, p);
+  ref.wireframe = s.wireframe = true;
+  const Eigen::Vector3d dir(-0.6, 1.0, -0.55);
+  const Image a = render(std::span<const Surface>(&ref, 1),
+                         fit_camera(std::span<const Surface>(&ref, 1), dir, 120, 90));
+  const Image b = render(std::span<const Surface>(&s, 1),
+                         fit_camera(std::span<const Surface>(&s, 1), dir, 120, 90));
+  int differing = 0;
+  for (std::size_t i = 0; i < a.rgb.size(); ++i)
+    differing += std::abs(int(a.rgb[i]) - int(b.rgb[i])) > 8;
+  EXPECT_LT(differing, 40) << "scale " << scale << " offset " << offset;
+}
+
+INSTANTIATE_TEST_SUITE_P(Units, ScaleAndOffset,
+                         ::testing::Values(std::pair{1e-6, 0.0}, std::pair{1.0, 1e6},
+                                           std::pair{1e-6, 1e3}, std::pair{1e3, -1e6}));
+
 TEST(Render, CameraInsideObjectSeesInsideFaces) {
   const TetMesh cube = test::cube_six_tets(2.0);
   const Eigen::Matrix3Xd p = cube.positions;
