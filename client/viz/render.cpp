@@ -397,34 +397,42 @@ std::string format_value(double v) {
   return buf;
 }
 
+/// Layout of the colour bar: bar and label sizes, and the panel's total width.
+struct BarLayout {
+  int bar_w = 0, bar_h = 0, label_w = 0, panel_w = 0;
+};
+
+BarLayout bar_layout(int width, int height, const ColourMap& map, const std::string& name) {
+  BarLayout b;
+  b.bar_w = std::max(10, width / 60);
+  b.bar_h = std::max(40, height / 2);
+  b.label_w = std::max({text_size(format_value(map.hi)).at(0),
+                        text_size(format_value(map.lo)).at(0), text_size("0").at(0)});
+  b.panel_w = std::max(b.bar_w + b.label_w + 16, text_size(name).at(0) + 12) + 18;
+  return b;
+}
+
 void draw_colour_bar(Image& img, const ColourMap& map, const std::string& name) {
-  const int bar_w = std::max(10, img.width / 60);
-  const int bar_h = std::max(40, img.height / 2);
-  const int label_w = text_size("-0.0000e-00").at(0);
-  const int x0 = img.width - bar_w - label_w - 24;
-  const int y0 = (img.height - bar_h) / 2;
-  if (x0 < 0 || y0 < 0) return;
+  const BarLayout b = bar_layout(img.width, img.height, map, name);
+  const int px = img.width - b.panel_w;  // panel's left edge
+  const int x0 = px + 10;                // bar's left edge
+  const int y0 = (img.height - b.bar_h) / 2;
+  const int th = text_size("0").at(1);
+  if (px < 0 || y0 - 2 * th - 10 < 0) return;
   // A light panel behind the bar and its labels keeps them readable over the scene.
-  const int th0 = text_size("0").at(1);
-  for (int y = y0 - 2 * th0 - 10; y < y0 + bar_h + th0 + 4; ++y)
-    for (int x = x0 - 10; x < img.width - 8; ++x)
-      detail::blend_pixel(img, x, y, {255, 255, 255}, 0.6);
-  for (int y = 0; y < bar_h; ++y) {
-    const double t = 1.0 - static_cast<double>(y) / std::max(1, bar_h - 1);
+  for (int y = y0 - 2 * th - 10; y < y0 + b.bar_h + th + 4; ++y)
+    for (int x = px; x < img.width - 8; ++x) detail::blend_pixel(img, x, y, {255, 255, 255}, 0.6);
+  for (int y = 0; y < b.bar_h; ++y) {
+    const double t = 1.0 - static_cast<double>(y) / std::max(1, b.bar_h - 1);
     const auto c = map.diverging ? blue_white_red(t) : viridis(t);
-    for (int x = 0; x < bar_w; ++x) detail::put_pixel(img, x0 + x, y0 + y, c);
+    for (int x = 0; x < b.bar_w; ++x) detail::put_pixel(img, x0 + x, y0 + y, c);
   }
   const std::array<std::uint8_t, 3> black{30, 30, 30};
-  detail::draw_rect_outline(img, x0 - 1, y0 - 1, bar_w + 2, bar_h + 2, black);
-  const int th = text_size("0").at(1);
-  draw_text(img, x0 + bar_w + 6, y0 - th / 2, format_value(map.hi), black);
-  draw_text(img, x0 + bar_w + 6, y0 + bar_h - th / 2, format_value(map.lo), black);
-  if (map.diverging) draw_text(img, x0 + bar_w + 6, y0 + bar_h / 2 - th / 2, "0", black);
-  if (!name.empty()) {
-    const int nw = text_size(name).at(0);
-    draw_text(img, std::max(0, std::min(x0 + bar_w / 2 - nw / 2, img.width - nw - 4)),
-              y0 - 2 * th - 4, name, black);
-  }
+  detail::draw_rect_outline(img, x0 - 1, y0 - 1, b.bar_w + 2, b.bar_h + 2, black);
+  draw_text(img, x0 + b.bar_w + 6, y0 - th / 2, format_value(map.hi), black);
+  draw_text(img, x0 + b.bar_w + 6, y0 + b.bar_h - th / 2, format_value(map.lo), black);
+  if (map.diverging) draw_text(img, x0 + b.bar_w + 6, y0 + b.bar_h / 2 - th / 2, "0", black);
+  if (!name.empty()) draw_text(img, x0, y0 - 2 * th - 4, name, black);
 }
 
 }  // namespace
@@ -484,7 +492,24 @@ Image render(std::span<const Surface> surfaces, const Camera& camera,
   fb.rgb.resize(static_cast<std::size_t>(fb.w) * fb.h * 3);
   fb.inv_z.assign(static_cast<std::size_t>(fb.w) * fb.h, 0.0f);
   fill_background(fb, options.background_gradient);
-  const View view = make_view(camera, fb.w, fb.h);
+  View view = make_view(camera, fb.w, fb.h);
+  // With a colour bar, the scene is drawn in the part of the image left of its panel.
+  const Surface* bar_surface = nullptr;
+  if (options.colour_bar)
+    for (const Surface& s : surfaces)
+      if (!s.scalar.empty()) {
+        bar_surface = &s;
+        break;
+      }
+  if (bar_surface != nullptr) {
+    const int panel =
+        bar_layout(width, height, colour_map_of(*bar_surface), bar_surface->scalar_name).panel_w;
+    if (panel < width / 2) {
+      const double keep = static_cast<double>(width - panel) / width;
+      view.cx *= keep;
+      view.focal *= keep;
+    }
+  }
   RasterParams rp;
   rp.edge_half_width = kEdgeHalfWidth * ss;
   Eigen::Vector3d light = options.light;
@@ -518,13 +543,10 @@ Image render(std::span<const Surface> surfaces, const Camera& camera,
     for (std::size_t q = 0; q < acc.size(); ++q)
       dst[q] = static_cast<std::uint8_t>(std::clamp(acc[q] * norm + 0.5f, 0.0f, 255.0f));
   }
-  if (options.colour_bar)
-    for (const Surface& s : surfaces)
-      if (!s.scalar.empty()) {
-        draw_colour_bar(img, colour_map_of(s), s.scalar_name);
-        break;
-      }
-  if (!options.title.empty()) draw_text(img, 12, 10, options.title, {20, 20, 20}, 2);
+  if (bar_surface != nullptr)
+    draw_colour_bar(img, colour_map_of(*bar_surface), bar_surface->scalar_name);
+  if (!options.title.empty())
+    draw_text(img, 12, 10, options.title, {20, 20, 20}, width >= 600 ? 2 : 1);
   return img;
 }
 
