@@ -44,6 +44,7 @@ void add_distance_command(CLI::App& app, Context& ctx);
 void add_bench_command(CLI::App& app, Context& ctx);
 /// `bench response`, added under the `bench` subcommand by add_bench_command.
 void add_bench_response_command(CLI::App& bench, Context& ctx);
+void add_render_command(CLI::App& app, Context& ctx);
 #ifdef TC_WITH_SERVICE
 void add_record_command(CLI::App& app, Context& ctx);
 void add_replay_command(CLI::App& app, Context& ctx);
