@@ -78,7 +78,7 @@ tc::client::Mesh to_client(const tc::TetMesh& m, const Eigen::Vector3d& offset) 
 double process_cpu_s(const std::string& pid) {
   std::ifstream in("/proc/" + pid + "/stat");
   std::string text;
-  std::getline(in, text);  // one line
+  std::getline(in, text);              // one line
   const auto close = text.rfind(')');  // the command name may contain spaces
   if (close == std::string::npos) return 0.0;
   std::istringstream fields(text.substr(close + 2));
