@@ -3,14 +3,25 @@
 // Participants with another identity (or none) run in a second process
 // (itest_security_peer) because Cyclone DDS allows one configuration per domain and
 // process. Labels: integration, security. docs/RELIABILITY.md, "DDS Security".
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <linux/if_ether.h>
+#include <linux/if_packet.h>
+#include <net/if.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "daemon_process.hpp"
 #include "scenes.hpp"
@@ -39,6 +50,66 @@ std::string slurp(const std::filesystem::path& path) {
   s << in.rdbuf();
   return s.str();
 }
+
+/// Captures every packet on the loopback interface (AF_PACKET) into memory while alive.
+/// Needs CAP_NET_RAW: root, or the user namespace run_isolated.sh creates.
+class LoopbackCapture {
+ public:
+  LoopbackCapture() {
+    fd_ = socket(AF_PACKET, SOCK_RAW, htons(ETH_P_ALL));
+    if (fd_ < 0) return;
+    sockaddr_ll addr{};
+    addr.sll_family = AF_PACKET;
+    addr.sll_protocol = htons(ETH_P_ALL);
+    addr.sll_ifindex = static_cast<int>(if_nametoindex("lo"));
+    timeval tv{0, 50000};
+    if (addr.sll_ifindex == 0 || bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
+        setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) != 0) {
+      close(fd_);
+      fd_ = -1;
+      return;
+    }
+    thread_ = std::thread([this] {
+      std::vector<char> buf(1 << 17);
+      while (!stop_) {
+        const ssize_t n = recv(fd_, buf.data(), buf.size(), 0);
+        if (n <= 0) continue;
+        std::lock_guard lock(mutex_);
+        ++packets_;
+        if (bytes_.size() < (std::size_t{256} << 20))
+          bytes_.append(buf.data(), static_cast<std::size_t>(n));
+      }
+    });
+  }
+  ~LoopbackCapture() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+    if (fd_ >= 0) close(fd_);
+  }
+  LoopbackCapture(const LoopbackCapture&) = delete;
+  LoopbackCapture& operator=(const LoopbackCapture&) = delete;
+  [[nodiscard]] bool ok() const { return fd_ >= 0; }
+  [[nodiscard]] bool contains(const std::string& text) {
+    std::lock_guard lock(mutex_);
+    return bytes_.find(text) != std::string::npos;
+  }
+  void clear() {
+    std::lock_guard lock(mutex_);
+    bytes_.clear();
+  }
+  [[nodiscard]] std::size_t packets() {
+    std::lock_guard lock(mutex_);
+    return packets_;
+  }
+
+ private:
+  int fd_ = -1;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+  std::mutex mutex_;
+  std::string bytes_;
+  std::size_t packets_ = 0;
+};
 
 class SecurityTest : public ::testing::Test {
  protected:
@@ -108,25 +179,27 @@ class SecurityTest : public ::testing::Test {
 
   /// Streams two overlapping boxes in `scene` for `frames` frames; every frame must be
   /// answered and some must carry forces. Returns the status events seen.
-  std::vector<client::StatusEvent> stream_two_boxes(Client& c, int frames) {
+  std::vector<client::StatusEvent> stream_two_boxes(Client& c, int frames,
+                                                    const std::string& a_name = "a",
+                                                    const std::string& b_name = "b") {
     std::vector<client::StatusEvent> events;
     const client::Mesh a = box_mesh(2, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
     const client::Mesh b = box_mesh(2, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
     EXPECT_TRUE(c.wait_for_service(20s)) << "the secured client never saw the secured service";
-    c.register_object("a", a, {});
-    c.register_object("b", b, {});
-    EXPECT_TRUE(c.wait_registered("a", 10s).ok);
-    EXPECT_TRUE(c.wait_registered("b", 10s).ok);
+    c.register_object(a_name, a, {});
+    c.register_object(b_name, b, {});
+    EXPECT_TRUE(c.wait_registered(a_name, 10s).ok);
+    EXPECT_TRUE(c.wait_registered(b_name, 10s).ok);
     int with_forces = 0;
     for (std::int64_t f = 0; f < frames; ++f) {
       const auto pa = translated(a, {0.0, 0.0, 0.002 * static_cast<double>(f % 10)});
       const auto pb = translated(b, {-0.003 * static_cast<double>(f % 10), 0.0, 0.0});
-      c.publish_states(f, {{"a", pa}, {"b", pb}});
+      c.publish_states(f, {{a_name, pa}, {b_name, pb}});
       const auto forces = c.wait_forces(f, 5s);
       EXPECT_TRUE(forces && forces->frame == f) << "frame " << f << " not answered";
       if (!forces) break;
       EXPECT_TRUE(forces->ok());
-      const auto* fa = forces->find("a");
+      const auto* fa = forces->find(a_name);
       if (fa != nullptr && !fa->nodes.empty()) ++with_forces;
     }
     EXPECT_GT(with_forces, 0) << "overlapping boxes but no contact forces";
@@ -214,6 +287,37 @@ TEST_F(SecurityTest, APermissionDenyingTheForceTopicDeniesIt) {
   EXPECT_NE(peer["forces_writer"], "ok");
   EXPECT_EQ(peer["status_reader"], "ok");
   EXPECT_NE(peer["status_samples"], "0") << "the denied client did not authenticate at all";
+}
+
+// Encryption: on the wire (loopback, captured with a packet socket) the object names a
+// plain client sends (sample keys, in every MeshTopology and MeshState) appear in clear;
+// those the secured client sends never do, although its exchange is captured too (every
+// frame answered, packets seen).
+TEST_F(SecurityTest, TrafficIsEncryptedOnTheWire) {
+  LoopbackCapture capture;
+  if (!capture.ok()) GTEST_SKIP() << "no packet socket (needs CAP_NET_RAW): " << strerror(errno);
+  // Control: a plain daemon and client on another domain, same capture.
+  const std::uint32_t plain_domain = domain_ == 229 ? 10 : domain_ + 1;
+  const auto plain_dir = dir_ / "plain";
+  std::filesystem::create_directories(plain_dir);
+  {
+    DaemonProcess plain(plain_dir, plain_domain, daemon_config(network_));
+    ASSERT_TRUE(plain.start()) << plain.log_text();
+    client::Options o;
+    o.domain = plain_domain;
+    o.scene = "clear";
+    o.cyclonedds_config = network_;
+    auto c = Client::connect(o);
+    stream_two_boxes(*c, 10, "marker-in-clear-a", "marker-in-clear-b");
+  }
+  EXPECT_TRUE(capture.contains("marker-in-clear-a")) << "the capture does not see DDS data";
+  capture.clear();
+  const std::size_t before = capture.packets();
+  auto c = connect("secret", profile("client"));
+  stream_two_boxes(*c, 10, "marker-secret-a", "marker-secret-b");
+  EXPECT_GT(capture.packets(), before + 40) << "the secured exchange was not captured";
+  EXPECT_FALSE(capture.contains("marker-secret-a")) << "an object name went out in clear";
+  EXPECT_FALSE(capture.contains("marker-secret-b")) << "an object name went out in clear";
 }
 
 }  // namespace
