@@ -185,7 +185,7 @@ class SecurityTest : public ::testing::Test {
     std::vector<client::StatusEvent> events;
     const client::Mesh a = box_mesh(2, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
     const client::Mesh b = box_mesh(2, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
-    EXPECT_TRUE(c.wait_for_service(20s)) << "the secured client never saw the secured service";
+    EXPECT_TRUE(c.wait_for_service(20s)) << "the client never saw the service";
     c.register_object(a_name, a, {});
     c.register_object(b_name, b, {});
     EXPECT_TRUE(c.wait_registered(a_name, 10s).ok);
