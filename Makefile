@@ -6,6 +6,8 @@ JOBS ?= $(shell nproc)
 DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspdlog-dev \
   libgtest-dev libgmock-dev libbenchmark-dev cyclonedds-dev cyclonedds-tools libyaml-cpp-dev \
   nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev
+# DDS Security tests and profile (config/security/make_test_pki.sh)
+DEB_PACKAGES += openssl
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan demo format format-check bench clean help
@@ -48,6 +50,11 @@ demo: build
 
 bench: build
 	./scripts/bench.sh
+
+# CPU and latency cost of the DDS Security profile (docs/RELIABILITY.md, "DDS Security").
+.PHONY: bench-security
+bench-security: build
+	./bench/security_cost.sh $(BUILD_DIR)
 
 format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

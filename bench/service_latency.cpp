@@ -1,7 +1,7 @@
 // Service benchmark: the real tetcollided over DDS on this host.
 //
 //   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--depth M]
-//                   [--bob M] [--lockstep | --wait] [--json]
+//                   [--bob M] [--lockstep | --wait] [--daemon-dds-config URI] [--json]
 //   service_latency --large [--daemon PATH] [--json]
 //
 // Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting
@@ -19,7 +19,11 @@
 // service's REGISTERED status) and the daemon's resident memory before and after.
 //
 // With --daemon the program starts that daemon on a private domain (loopback Cyclone
-// config) and stops it at the end; otherwise it uses a running one on --domain.
+// config) and stops it at the end; otherwise it uses a running one on --domain. Then the
+// daemon's CPU time (user + system, all threads, /proc/<pid>/stat) over the measured
+// frames is reported too, and --daemon-dds-config sets its dds.cyclonedds_config (the
+// benchmark's own participants use CYCLONEDDS_URI): bench/security_cost.sh compares the
+// DDS Security profile with the plain one this way.
 #include <dds/dds.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -39,6 +43,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "core/io/mesh_io.hpp"
@@ -69,6 +74,22 @@ tc::client::Mesh to_client(const tc::TetMesh& m, const Eigen::Vector3d& offset) 
   return out;
 }
 
+/// utime + stime of /proc/<pid>/stat ("self" for this process), seconds; 0 when unreadable.
+double process_cpu_s(const std::string& pid) {
+  std::ifstream in("/proc/" + pid + "/stat");
+  std::string text;
+  std::getline(in, text);              // one line
+  const auto close = text.rfind(')');  // the command name may contain spaces
+  if (close == std::string::npos) return 0.0;
+  std::istringstream fields(text.substr(close + 2));
+  std::string field;
+  double ticks = 0.0;
+  // Fields after the name start at 3 (state); utime and stime are fields 14 and 15.
+  for (int k = 3; k <= 15 && fields >> field; ++k)
+    if (k >= 14) ticks += std::stod(field);
+  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
 /// A daemon started by the benchmark.
 struct Daemon {
   pid_t pid = -1;
@@ -95,6 +116,8 @@ struct Daemon {
     }
     return true;
   }
+  /// CPU time (user + system, every thread) the daemon has used so far, seconds.
+  [[nodiscard]] double cpu_s() const { return process_cpu_s(std::to_string(pid)); }
   [[nodiscard]] double rss_mb() const {
     std::ifstream in("/proc/" + std::to_string(pid) + "/status");
     std::string line;
@@ -173,7 +196,7 @@ struct LatencyArgs {
   bool wait = false;
 };
 
-int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
+int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* daemon, bool json) {
   const int frames = args.frames;
   const double rate = args.rate;
   const std::string meshes = std::string(TC_SOURCE_DIR) + "/data/meshes/";
@@ -230,7 +253,12 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
   std::vector<double> positions = torus_mesh.rest_positions;
   auto next = Clock::now();
+  double daemon_cpu0 = 0.0, client_cpu0 = 0.0;
   for (int f = 0; f < warmup + frames; ++f) {
+    if (f == warmup) {
+      daemon_cpu0 = daemon != nullptr ? daemon->cpu_s() : 0.0;
+      client_cpu0 = process_cpu_s("self");
+    }
     next += period;
     std::this_thread::sleep_until(next);
     const double dz = args.bob * std::sin(2.0 * M_PI * static_cast<double>(f) / 500.0);
@@ -261,6 +289,8 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
     }
     std::this_thread::sleep_for(1ms);
   }
+  const double daemon_cpu = daemon != nullptr ? daemon->cpu_s() - daemon_cpu0 : 0.0;
+  const double client_cpu = process_cpu_s("self") - client_cpu0;
   if (!args.wait) c->set_forces_callback(nullptr);
   stats.drain();
 
@@ -314,7 +344,11 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
                            {"narrow_ms_p50", percentile(stage[1], 0.5)},
                            {"depth_ms_p50", percentile(stage[2], 0.5)},
                            {"response_ms_p50", percentile(stage[3], 0.5)},
-                           {"contacts_p50", percentile(contact_counts, 0.5)}};
+                           {"contacts_p50", percentile(contact_counts, 0.5)},
+                           // CPU over the measured frames (0 for the daemon without --daemon).
+                           {"daemon_cpu_s", daemon_cpu},
+                           {"daemon_cpu_ms_per_frame", 1000.0 * daemon_cpu / frames},
+                           {"client_cpu_ms_per_frame", 1000.0 * client_cpu / frames}};
   if (json) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
@@ -341,6 +375,10 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, bool json) {
                 out["broad_ms_p50"].get<double>(), out["narrow_ms_p50"].get<double>(),
                 out["depth_ms_p50"].get<double>(), out["response_ms_p50"].get<double>(),
                 out["contacts_p50"].get<double>());
+    std::printf("CPU per measured frame: daemon %.3f ms%s, this client %.3f ms\n",
+                out["daemon_cpu_ms_per_frame"].get<double>(),
+                daemon != nullptr ? "" : " (not started here)",
+                out["client_cpu_ms_per_frame"].get<double>());
   }
   return answered == static_cast<std::size_t>(frames) ? 0 : 1;
 }
@@ -432,6 +470,9 @@ int main(int argc, char** argv) {
   app.add_flag("--wait", latency.wait,
                "Lock-step with Client::wait_forces instead of the forces callback");
   app.add_flag("--large", large, "Register two 300k-tet objects; time and memory");
+  std::string daemon_dds_config;
+  app.add_option("--daemon-dds-config", daemon_dds_config,
+                 "dds.cyclonedds_config of the started daemon (e.g. a DDS Security profile)");
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
   if (std::getenv("CYCLONEDDS_URI") == nullptr)
@@ -441,12 +482,17 @@ int main(int argc, char** argv) {
   if (!daemon_path.empty()) {
     domain = 100 + static_cast<std::uint32_t>(getpid()) % 100;
     const std::string config = "/tmp/tc-bench-" + std::to_string(getpid()) + ".yaml";
-    std::ofstream(config) << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+    std::ofstream yaml(config);
+    yaml << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+    if (!daemon_dds_config.empty())
+      yaml << "dds:\n  cyclonedds_config: '" << daemon_dds_config << "'\n";
+    yaml.close();
     if (!daemon.start(daemon_path, domain, config)) return 1;
   }
   try {
-    const int rc = large ? run_large(domain, daemon_path.empty() ? nullptr : &daemon, json)
-                         : run_latency(domain, latency, json);
+    const int rc =
+        large ? run_large(domain, daemon_path.empty() ? nullptr : &daemon, json)
+              : run_latency(domain, latency, daemon_path.empty() ? nullptr : &daemon, json);
     return rc;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
