@@ -295,9 +295,12 @@ Expected<std::vector<Record>> read_recording_buffer(std::string_view text,
     if (!header.is_object() || header.value("format", std::string()) != kFormatName)
       return Error{ErrorCode::kParse, name + ":1: not a tetcollide recording (no \"format\": \"" +
                                           kFormatName + "\" header)"};
-    if (header.value("version", -1) != kFormatVersion)
-      return Error{ErrorCode::kUnsupported, name + ":1: recording version " +
-                                                header["version"].dump() +
+    // (find, not operator[]: on a const json a missing key is undefined behaviour.)
+    const auto version = header.find("version");
+    if (version == header.end())
+      return Error{ErrorCode::kParse, name + ":1: the header has no \"version\""};
+    if (!version->is_number_integer() || version->get<std::int64_t>() != kFormatVersion)
+      return Error{ErrorCode::kUnsupported, name + ":1: recording version " + version->dump() +
                                                 " is not supported (this build reads version 1)"};
   } catch (const json::exception& e) {
     return Error{ErrorCode::kParse, name + ":1: " + e.what()};
