@@ -565,7 +565,8 @@ TEST(TetGenBuffer, MissingAttributesAreAccepted) {
 // Found by fuzz/fuzz_tetgen (fuzz/regressions/tetgen/): an attribute count near 2^63
 // overflowed the per-line token limit (signed overflow, UB).
 TEST(TetGenBuffer, HugeAttributeCountsAreErrors) {
-  EXPECT_EQ(tetgen_error("4 3 9223372036854775807 0\n0 0 0 0\n", kEle1).message,
+  EXPECT_EQ(tetgen_error("4 3 9223372036854775807 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n", kEle1)
+                .message,
             "mem.node:1: expected at most 2147483647 attributes per point, got "
             "9223372036854775807");
   EXPECT_EQ(tetgen_error(kNode4, "1 4 9223372036854775807\n0 0 1 2 3\n").message,
