@@ -5,12 +5,16 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspdlog-dev \
   libgtest-dev libgmock-dev libbenchmark-dev cyclonedds-dev cyclonedds-tools libyaml-cpp-dev \
-  nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev
+  nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev clang libclang-rt-14-dev
 # DDS Security tests and profile (config/security/make_test_pki.sh)
 DEB_PACKAGES += openssl
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps build test test-asan demo format format-check bench clean help
+.PHONY: all deps build test test-asan test-tsan fuzz fuzz-short fuzz-build demo format \
+  format-check bench clean help
+# Seconds each fuzz target runs in `make fuzz` / `make fuzz-short` (CI).
+FUZZ_SECONDS ?= 60
+FUZZ_SHORT_SECONDS ?= 15
 
 all: build
 
@@ -18,7 +22,10 @@ help:
 	@echo "make deps        install missing Debian packages"
 	@echo "make build       Release build, executables in $(BUILD_DIR)/bin/"
 	@echo "make test        deps + build + all tests (ctest)"
-	@echo "make test-asan   unit tests under ASan+UBSan (build/asan-ubsan)"
+	@echo "make test-asan   every test under ASan+UBSan (build/asan-ubsan)"
+	@echo "make test-tsan   the daemon's tests under TSan (build/tsan)"
+	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/fuzz)"
+	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job on embedded defaults"
 	@echo "make format      clang-format every source file"
 
@@ -42,8 +49,24 @@ test: build
 
 test-asan: deps
 	cmake --preset asan-ubsan
-	cmake --build build/asan-ubsan -j $(JOBS)
+	cmake --build --preset asan-ubsan -j $(JOBS)
 	ctest --preset asan-ubsan -j $(JOBS)
+
+# Only the daemon's tests (tests/service, tests/integration) and the programs they run.
+test-tsan: deps
+	cmake --preset tsan
+	cmake --build --preset tsan -j $(JOBS)
+	ctest --preset tsan -j $(JOBS)
+
+fuzz-build: deps
+	cmake --preset fuzz
+	cmake --build --preset fuzz -j $(JOBS)
+
+fuzz: fuzz-build
+	FUZZ_SECONDS=$(FUZZ_SECONDS) ./scripts/fuzz.sh
+
+fuzz-short: fuzz-build
+	FUZZ_SECONDS=$(FUZZ_SHORT_SECONDS) ./scripts/fuzz.sh
 
 demo: build
 	./scripts/demo.sh

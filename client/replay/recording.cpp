@@ -1,6 +1,7 @@
 #include "recording.hpp"
 
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -269,28 +270,47 @@ Status RecordingWriter::close() {
 Expected<std::vector<Record>> read_recording(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{ErrorCode::kIo, path.string() + ": cannot open the recording"};
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) return Error{ErrorCode::kIo, path.string() + ": read error"};
+  return read_recording_buffer(text, path.string());
+}
+
+Expected<std::vector<Record>> read_recording_buffer(std::string_view text,
+                                                    const std::string& name) {
+  std::size_t pos = 0;
+  // The next line without its '\n'; false at the end of the text.
+  const auto next_line = [&](std::string& line) {
+    if (pos >= text.size()) return false;
+    const std::size_t nl = text.find('\n', pos);
+    const std::size_t end = nl == std::string_view::npos ? text.size() : nl;
+    line.assign(text.substr(pos, end - pos));
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    return true;
+  };
   std::string line;
-  if (!std::getline(in, line))
-    return Error{ErrorCode::kParse, path.string() + ":1: empty file, expected the header"};
+  if (!next_line(line))
+    return Error{ErrorCode::kParse, name + ":1: empty file, expected the header"};
   try {
     const json header = json::parse(line);
     if (!header.is_object() || header.value("format", std::string()) != kFormatName)
-      return Error{ErrorCode::kParse, path.string() +
-                                          ":1: not a tetcollide recording (no \"format\": \"" +
+      return Error{ErrorCode::kParse, name + ":1: not a tetcollide recording (no \"format\": \"" +
                                           kFormatName + "\" header)"};
-    if (header.value("version", -1) != kFormatVersion)
-      return Error{ErrorCode::kUnsupported, path.string() + ":1: recording version " +
-                                                header["version"].dump() +
+    // (find, not operator[]: on a const json a missing key is undefined behaviour.)
+    const auto version = header.find("version");
+    if (version == header.end())
+      return Error{ErrorCode::kParse, name + ":1: the header has no \"version\""};
+    if (!version->is_number_integer() || version->get<std::int64_t>() != kFormatVersion)
+      return Error{ErrorCode::kUnsupported, name + ":1: recording version " + version->dump() +
                                                 " is not supported (this build reads version 1)"};
   } catch (const json::exception& e) {
-    return Error{ErrorCode::kParse, path.string() + ":1: " + e.what()};
+    return Error{ErrorCode::kParse, name + ":1: " + e.what()};
   }
   std::vector<Record> records;
   std::size_t number = 1;
-  while (std::getline(in, line)) {
+  while (next_line(line)) {
     ++number;
     if (line.empty()) continue;
-    const std::string where = path.string() + ":" + std::to_string(number);
+    const std::string where = name + ":" + std::to_string(number);
     // "info" lines describe the session (domain, ...); they carry no sample.
     if (line.find("\"type\":\"info\"") != std::string::npos) continue;
     auto r = decode_record(line, where);

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -87,6 +88,9 @@ class RecordingWriter {
 /// Reads a whole recording. kParse names the line at fault; kUnsupported for another
 /// format or version.
 Expected<std::vector<Record>> read_recording(const std::filesystem::path& path);
+/// Same, from the file's content in memory; `name` prefixes the error messages
+/// ("name:line: ...").
+Expected<std::vector<Record>> read_recording_buffer(std::string_view text, const std::string& name);
 
 /// Encodes / decodes one record line (exposed for tests).
 std::string encode_record(const Record& record);

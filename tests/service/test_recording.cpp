@@ -178,6 +178,12 @@ INSTANTIATE_TEST_SUITE_P(
                 "not a tetcollide recording"},
         BadFile{"version_2", "{\"format\":\"tetcollide-recording\",\"version\":2}\n",
                 ErrorCode::kUnsupported, "version 2"},
+        // Found by fuzz/fuzz_recording: a header without "version" read a missing key
+        // of a const json (undefined behaviour, a heap overflow under ASan).
+        BadFile{"no_version", "{\"format\":\"tetcollide-recording\"}\n", ErrorCode::kParse,
+                ":1: the header has no \"version\""},
+        BadFile{"version_string", "{\"format\":\"tetcollide-recording\",\"version\":\"1\"}\n",
+                ErrorCode::kUnsupported, "recording version \"1\" is not supported"},
         BadFile{"bad_line",
                 "{\"format\":\"tetcollide-recording\",\"version\":1}\n{\"type\":\"state\"}\n",
                 ErrorCode::kParse, ":2:"},

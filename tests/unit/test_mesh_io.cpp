@@ -562,6 +562,17 @@ TEST(TetGenBuffer, MissingAttributesAreAccepted) {
   EXPECT_EQ(mesh->tets[0], (Tet{0, 1, 2, 3}));
 }
 
+// Found by fuzz/fuzz_tetgen (fuzz/regressions/tetgen/): an attribute count near 2^63
+// overflowed the per-line token limit (signed overflow, UB).
+TEST(TetGenBuffer, HugeAttributeCountsAreErrors) {
+  EXPECT_EQ(tetgen_error("4 3 9223372036854775807 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n", kEle1)
+                .message,
+            "mem.node:1: expected at most 2147483647 attributes per point, got "
+            "9223372036854775807");
+  EXPECT_EQ(tetgen_error(kNode4, "1 4 9223372036854775807\n0 0 1 2 3\n").message,
+            "mem.ele:1: expected at most 2147483647 attributes per tet, got 9223372036854775807");
+}
+
 TEST(TetGenBuffer, Errors) {
   EXPECT_EQ(tetgen_error("4 3 0 0\n0 0 0 0\n1 1 0 0\n3 0 1 0\n2 0 0 1\n", kEle1).message,
             "mem.node:4: expected point index 2 (points are numbered consecutively), got 3");

@@ -94,6 +94,10 @@ Status parse_node_file(std::string_view text, const std::string& file, TetMesh& 
     return fail(ErrorCode::kParse, std::to_string(n) +
                                        " points announced, more than the remaining " +
                                        std::to_string(scan.remaining()) + " bytes can hold");
+  // A count beyond any line's length cannot be honoured (and would overflow below).
+  if (nattr > kMaxCount)
+    return fail(ErrorCode::kParse, "expected at most " + std::to_string(kMaxCount) +
+                                       " attributes per point, got " + std::to_string(nattr));
   const std::int64_t max_tokens = 4 + nattr + nmark;
   mesh.node_ids.resize(static_cast<std::size_t>(n));
   mesh.positions.resize(3, static_cast<Eigen::Index>(n));
@@ -177,6 +181,9 @@ Status parse_ele_file(std::string_view text, const std::string& file, const Node
     return fail(ErrorCode::kParse, std::to_string(m) + " tets announced, more than the remaining " +
                                        std::to_string(scan.remaining()) + " bytes can hold");
   const std::int64_t n = mesh.num_nodes();
+  if (nattr > kMaxCount)
+    return fail(ErrorCode::kParse, "expected at most " + std::to_string(kMaxCount) +
+                                       " attributes per tet, got " + std::to_string(nattr));
   const std::int64_t max_tokens = 5 + nattr;
   mesh.tets.resize(static_cast<std::size_t>(m));
   for (std::int64_t i = 0; i < m; ++i) {

@@ -1,0 +1,30 @@
+// Fuzz target: the Gmsh reader (MSH 2.2 ASCII, 4.1 ASCII and binary). The input is the
+// file's content. Every input must give a mesh or an error with a message; a mesh that
+// comes back has consistent sizes and in-range tet indices unless validation says so.
+#include <cstdint>
+
+#include "core/io/mesh_io.hpp"
+#include "core/mesh/validate.hpp"
+#include "fuzz_input.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string_view text = tc::fuzz::as_text(data, size);
+  if (auto mesh = tc::read_gmsh_buffer(text, "fuzz.msh")) {
+    TC_FUZZ_CHECK(mesh->node_ids.size() == static_cast<std::size_t>(mesh->num_nodes()));
+    const tc::ValidationReport report = tc::validate_mesh(*mesh);
+    // The reader rejects unknown node tags, so every tet index it returns is in range.
+    TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
+    // ... and non-finite coordinates.
+    TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+  } else {
+    TC_FUZZ_CHECK(!mesh.error().message.empty());
+  }
+  if (auto tris = tc::read_gmsh_triangles_buffer(text, "fuzz.msh")) {
+    TC_FUZZ_CHECK(tris->node_ids.size() == static_cast<std::size_t>(tris->positions.cols()));
+    for (const auto& t : tris->triangles)
+      for (const tc::Index i : t) TC_FUZZ_CHECK(i >= 0 && i < tris->positions.cols());
+  } else {
+    TC_FUZZ_CHECK(!tris.error().message.empty());
+  }
+  return 0;
+}

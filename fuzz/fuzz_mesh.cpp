@@ -1,0 +1,88 @@
+// Fuzz target: mesh validation and the topology build on meshes made from the input
+// (up to 48 nodes on a small grid with hard values mixed in, up to 96 tets whose indices
+// are mostly in range). validate_mesh() must classify any mesh; a mesh it does not call
+// structurally invalid must build a topology whose lists are consistent.
+#include <algorithm>
+#include <cstdint>
+
+#include "core/mesh/topology.hpp"
+#include "core/mesh/validate.hpp"
+#include "fuzz_input.hpp"
+
+namespace {
+
+void check_topology(const tc::TetMesh& mesh, const tc::Topology& topo) {
+  const auto n = static_cast<std::size_t>(mesh.num_nodes());
+  const auto m = static_cast<std::size_t>(mesh.num_tets());
+  TC_FUZZ_CHECK(topo.num_nodes == mesh.num_nodes() && topo.num_tets == mesh.num_tets());
+  TC_FUZZ_CHECK(topo.boundary_face_tet.size() == topo.boundary_faces.size());
+  TC_FUZZ_CHECK(topo.is_boundary_node.size() == n);
+  TC_FUZZ_CHECK(topo.tet_neighbors.size() == m && topo.tet_component.size() == m);
+  TC_FUZZ_CHECK(topo.node_adjacency.rows() == mesh.num_nodes());
+  TC_FUZZ_CHECK(topo.node_tets.rows() == mesh.num_nodes());
+  TC_FUZZ_CHECK(std::is_sorted(topo.edges.begin(), topo.edges.end()));
+  TC_FUZZ_CHECK(std::is_sorted(topo.boundary_nodes.begin(), topo.boundary_nodes.end()));
+  for (std::size_t f = 0; f < topo.boundary_faces.size(); ++f) {
+    const tc::Index t = topo.boundary_face_tet[f];
+    TC_FUZZ_CHECK(t >= 0 && static_cast<std::size_t>(t) < m);
+    for (const tc::Index v : topo.boundary_faces[f]) {
+      TC_FUZZ_CHECK(v >= 0 && static_cast<std::size_t>(v) < n);
+      TC_FUZZ_CHECK(topo.is_boundary_node[static_cast<std::size_t>(v)] == 1);
+      // The face's nodes belong to its tet.
+      const tc::Tet& tet = mesh.tets[static_cast<std::size_t>(t)];
+      TC_FUZZ_CHECK(std::find(tet.begin(), tet.end(), v) != tet.end());
+    }
+  }
+  for (std::size_t t = 0; t < m; ++t) {
+    TC_FUZZ_CHECK(topo.tet_component[t] >= 0 && topo.tet_component[t] < topo.num_components);
+    for (const tc::Index other : topo.tet_neighbors[t]) {
+      if (other < 0) continue;
+      TC_FUZZ_CHECK(static_cast<std::size_t>(other) < m);
+      // Neighbours are mutual and in the same component.
+      const auto& back = topo.tet_neighbors[static_cast<std::size_t>(other)];
+      TC_FUZZ_CHECK(std::find(back.begin(), back.end(), static_cast<tc::Index>(t)) != back.end());
+      TC_FUZZ_CHECK(topo.tet_component[static_cast<std::size_t>(other)] == topo.tet_component[t]);
+    }
+  }
+  for (const tc::Index v : topo.orphan_nodes) TC_FUZZ_CHECK(topo.node_tets.row(v).empty());
+  (void)tc::boundary_euler_characteristic(topo);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  tc::fuzz::FuzzInput in(data, size);
+  const std::uint32_t n = in.small(49);
+  const std::uint32_t m = in.small(97);
+  tc::TetMesh mesh;
+  mesh.positions.resize(3, static_cast<Eigen::Index>(n));
+  mesh.node_ids.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    mesh.node_ids[i] = static_cast<std::int64_t>(i) + 1;
+    for (int k = 0; k < 3; ++k) mesh.positions(k, static_cast<Eigen::Index>(i)) = in.coordinate();
+  }
+  mesh.tets.resize(m);
+  for (tc::Tet& tet : mesh.tets) {
+    for (std::int32_t& v : tet) {
+      const std::uint8_t selector = in.take<std::uint8_t>();
+      // Mostly in range; now and then a raw index (negative, just past the end, huge).
+      v = selector < 248 || n == 0
+              ? static_cast<std::int32_t>(selector % std::max<std::uint32_t>(n, 1))
+              : in.take<std::int32_t>();
+    }
+  }
+  const tc::ValidationReport report = tc::validate_mesh(mesh);
+  (void)report.summary();
+  const bool bad = report.structurally_invalid();
+  // The report's own rules: a clean report has no defect and valid quality bounds.
+  if (report.clean()) TC_FUZZ_CHECK(!bad);
+  if (!bad) {
+    const tc::Topology topo = tc::build_topology(mesh.tets, mesh.num_nodes());
+    check_topology(mesh, topo);
+    // The per-frame check agrees with the full one on positions.
+    const tc::ValidationReport frame = tc::validate_positions(mesh.positions, mesh.tets);
+    TC_FUZZ_CHECK(frame.degenerate.count == report.degenerate.count);
+    TC_FUZZ_CHECK(frame.inverted.count == report.inverted.count);
+  }
+  return 0;
+}
