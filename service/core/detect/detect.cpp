@@ -74,19 +74,51 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
     std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
     node_tets_ = invert(owned, num_nodes_);
   }
+  // Edge ids by a binary search within the edges of the smaller node (the edges are
+  // sorted, so each node's edges (u, *) are contiguous).
+  std::vector<Index> edge_begin(static_cast<std::size_t>(num_nodes_) + 1, 0);
+  for (const auto& e : edges_) {
+    if (e[0] < 0 || e[0] >= num_nodes_)
+      throw std::invalid_argument("CollisionBody: topology edge node " + std::to_string(e[0]) +
+                                  " outside [0, " + std::to_string(num_nodes_) + ")");
+    ++edge_begin[static_cast<std::size_t>(e[0]) + 1];
+  }
+  for (std::size_t i = 0; i + 1 < edge_begin.size(); ++i) edge_begin[i + 1] += edge_begin[i];
   tet_edges_.resize(tets_.size());
-  for (std::size_t t = 0; t < tets_.size(); ++t)
-    for (int k = 0; k < 6; ++k) {
-      Index u = tets_[t][kTetEdges[k][0]], v = tets_[t][kTetEdges[k][1]];
-      if (u > v) std::swap(u, v);
-      const std::array<Index, 2> key{u, v};
-      const auto it = std::lower_bound(edges_.begin(), edges_.end(), key);
-      if (it == edges_.end() || *it != key)
-        throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
-                                    std::to_string(v) + ") of tet " + std::to_string(t) +
-                                    " is not in the topology");
-      tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
-    }
+  bool missing = false;
+  std::size_t missing_tet = 0;
+  int missing_edge = 0;
+  detail::for_chunks(tets_.size(), 8192, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t t = begin; t < end; ++t)
+      for (int k = 0; k < 6; ++k) {
+        Index u = tets_[t][kTetEdges[k][0]], v = tets_[t][kTetEdges[k][1]];
+        if (u > v) std::swap(u, v);
+        const auto first = edges_.begin() + edge_begin[u];
+        const auto last = edges_.begin() + edge_begin[u + 1];
+        const std::array<Index, 2> key{u, v};
+        const auto it = std::lower_bound(first, last, key);
+        if (it == last || *it != key) {
+          tet_edges_[t][k] = -1;
+          continue;
+        }
+        tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
+      }
+  });
+  for (std::size_t t = 0; t < tets_.size() && !missing; ++t)
+    for (int k = 0; k < 6 && !missing; ++k)
+      if (tet_edges_[t][k] < 0) {
+        missing = true;
+        missing_tet = t;
+        missing_edge = k;
+      }
+  if (missing) {
+    Index u = tets_[missing_tet][kTetEdges[missing_edge][0]];
+    Index v = tets_[missing_tet][kTetEdges[missing_edge][1]];
+    if (u > v) std::swap(u, v);
+    throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
+                                std::to_string(v) + ") of tet " + std::to_string(missing_tet) +
+                                " is not in the topology");
+  }
   edge_tets_ = invert(tet_edges_, static_cast<Index>(edges_.size()));
 }
 
@@ -343,6 +375,19 @@ void Detector::collect_features(std::span<const Index> marked, const CollisionBo
   sort_values(features_);
 }
 
+namespace {
+
+/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
+/// through another tet of X around the same node or edge is skipped. Only used for
+/// dedup, so the output does not depend on which thread ran what.
+struct VisitMarks {
+  std::vector<std::uint64_t> mark;
+  std::uint64_t now = 0;
+};
+thread_local VisitMarks t_marks;
+
+}  // namespace
+
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingNode>& out) {
@@ -353,8 +398,11 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
   detail::reset_parts(node_parts_, chunks);
   detail::for_chunks(features_.size(), kFeatureChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t c) {
+                       VisitMarks& marks = t_marks;
+                       if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index node = features_[i];
+                         const std::uint64_t now = ++marks.now;
                          const Eigen::Vector3d p = px.col(node);
                          // The first tet of Y (in tet order) containing the node, among the tets
                          // overlapped by the marked tets around it. Rows repeat tets; no need to
@@ -367,7 +415,12 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
                              const Index ty = rows.items[k];
                              if (ty >= best) break;  // rows are sorted
-                             const TetGeometry& g = gy.geom[gy.slot[ty]];
+                             // A tet already tested for this node (through another tet
+                             // of X around it) did not contain it: skip.
+                             const Index slot = gy.slot[ty];
+                             if (marks.mark[slot] == now) continue;
+                             marks.mark[slot] = now;
+                             const TetGeometry& g = gy.geom[slot];
                              const double tol = rel * g.scale;
                              if (!((p.array() >= g.lo.array() - tol).all() &&
                                    (p.array() <= g.hi.array() + tol).all()))
@@ -388,15 +441,6 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
 }
 
 namespace {
-
-/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
-/// through another tet of X around the same edge is skipped. Only used for dedup, so
-/// the output does not depend on which thread ran what.
-struct VisitMarks {
-  std::vector<std::uint64_t> mark;
-  std::uint64_t now = 0;
-};
-thread_local VisitMarks t_marks;
 
 struct EdgeHit {
   IntrudingEdge edge;
