@@ -375,19 +375,6 @@ void Detector::collect_features(std::span<const Index> marked, const CollisionBo
   sort_values(features_);
 }
 
-namespace {
-
-/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
-/// through another tet of X around the same node or edge is skipped. Only used for
-/// dedup, so the output does not depend on which thread ran what.
-struct VisitMarks {
-  std::vector<std::uint64_t> mark;
-  std::uint64_t now = 0;
-};
-thread_local VisitMarks t_marks;
-
-}  // namespace
-
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingNode>& out) {
@@ -398,11 +385,8 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
   detail::reset_parts(node_parts_, chunks);
   detail::for_chunks(features_.size(), kFeatureChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t c) {
-                       VisitMarks& marks = t_marks;
-                       if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index node = features_[i];
-                         const std::uint64_t now = ++marks.now;
                          const Eigen::Vector3d p = px.col(node);
                          // The first tet of Y (in tet order) containing the node, among the tets
                          // overlapped by the marked tets around it. Rows repeat tets; no need to
@@ -415,12 +399,7 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
                              const Index ty = rows.items[k];
                              if (ty >= best) break;  // rows are sorted
-                             // A tet already tested for this node (through another tet
-                             // of X around it) did not contain it: skip.
-                             const Index slot = gy.slot[ty];
-                             if (marks.mark[slot] == now) continue;
-                             marks.mark[slot] = now;
-                             const TetGeometry& g = gy.geom[slot];
+                             const TetGeometry& g = gy.geom[gy.slot[ty]];
                              const double tol = rel * g.scale;
                              if (!((p.array() >= g.lo.array() - tol).all() &&
                                    (p.array() <= g.hi.array() + tol).all()))
@@ -441,6 +420,15 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
 }
 
 namespace {
+
+/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
+/// through another tet of X around the same edge is skipped. Only used for dedup, so
+/// the output does not depend on which thread ran what.
+struct VisitMarks {
+  std::vector<std::uint64_t> mark;
+  std::uint64_t now = 0;
+};
+thread_local VisitMarks t_marks;
 
 struct EdgeHit {
   IntrudingEdge edge;
