@@ -2,8 +2,13 @@
 #include "core/mesh/topology.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
+#include <algorithm>
 #include <map>
+#include <numeric>
+#include <random>
+#include <string>
 
 #include "core/io/mesh_io.hpp"
 
@@ -120,6 +125,90 @@ TEST(Topology, DeterministicAcrossBuilds) {
   EXPECT_EQ(a.boundary_faces, b.boundary_faces);
   EXPECT_EQ(a.node_adjacency.indices, b.node_adjacency.indices);
   EXPECT_EQ(a.tet_neighbors, b.tet_neighbors);
+}
+
+void expect_same_topology(const Topology& a, const Topology& b) {
+  EXPECT_EQ(a.num_nodes, b.num_nodes);
+  EXPECT_EQ(a.num_tets, b.num_tets);
+  EXPECT_EQ(a.boundary_faces, b.boundary_faces);
+  EXPECT_EQ(a.boundary_face_tet, b.boundary_face_tet);
+  EXPECT_EQ(a.boundary_edges, b.boundary_edges);
+  EXPECT_EQ(a.boundary_nodes, b.boundary_nodes);
+  EXPECT_EQ(a.is_boundary_node, b.is_boundary_node);
+  EXPECT_EQ(a.edges, b.edges);
+  EXPECT_EQ(a.node_adjacency.offsets, b.node_adjacency.offsets);
+  EXPECT_EQ(a.node_adjacency.indices, b.node_adjacency.indices);
+  EXPECT_EQ(a.node_tets.offsets, b.node_tets.offsets);
+  EXPECT_EQ(a.node_tets.indices, b.node_tets.indices);
+  EXPECT_EQ(a.tet_neighbors, b.tet_neighbors);
+  EXPECT_EQ(a.tet_component, b.tet_component);
+  EXPECT_EQ(a.num_components, b.num_components);
+  EXPECT_EQ(a.orphan_nodes, b.orphan_nodes);
+  EXPECT_EQ(a.nonmanifold_faces, b.nonmanifold_faces);
+}
+
+// build_topology (fast path: radix-sorted face keys, per-node adjacency rows, TBB) gives
+// exactly what the plain comparison-sort reference gives, on shuffled structured boxes
+// with random tets dropped (boundaries, holes, several components, orphan nodes), with
+// extra tets sharing a face three ways (non-manifold), and on broken tets (repeated
+// nodes: the reference path).
+class TopologyAgainstReference : public ::testing::TestWithParam<int> {};
+
+TEST_P(TopologyAgainstReference, IdenticalOnShuffledMeshes) {
+  std::mt19937 rng(static_cast<unsigned>(GetParam()));
+  const int nx = 2 + GetParam() % 5, ny = 1 + GetParam() % 4, nz = 3 + GetParam() % 3;
+  const TetMesh box = test::structured_box(nx, ny, nz, {0, 0, 0}, {1, 1, 1});
+  const Index n = box.num_nodes() + 3;  // 3 extra nodes: orphans unless used below
+  std::vector<Index> perm(static_cast<std::size_t>(n));
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), rng);
+  std::vector<Tet> tets;
+  std::bernoulli_distribution keep(GetParam() % 2 == 0 ? 1.0 : 0.7);
+  for (const Tet& t : box.tets) {
+    if (!keep(rng)) continue;
+    Tet u{perm[t[0]], perm[t[1]], perm[t[2]], perm[t[3]]};
+    if (rng() % 3 == 0) std::swap(u[0], u[1]);  // orientation does not matter here
+    tets.push_back(u);
+  }
+  std::shuffle(tets.begin(), tets.end(), rng);
+  if (GetParam() % 3 == 0 && !tets.empty()) {
+    // Two more tets on a face of the first one, with the extra nodes: non-manifold.
+    const Tet& t = tets.front();
+    tets.push_back({t[0], t[1], t[2], perm[static_cast<std::size_t>(n - 1)]});
+    tets.push_back({t[2], t[1], t[0], perm[static_cast<std::size_t>(n - 2)]});
+  }
+  SCOPED_TRACE("seed " + std::to_string(GetParam()) + ", " + std::to_string(tets.size()) + " tets");
+  const Topology fast = build_topology(tets, n);
+  const Topology reference = build_topology_reference(tets, n);
+  expect_same_topology(fast, reference);
+  EXPECT_EQ(fast.orphan_nodes.empty(), false);
+  if (GetParam() % 3 == 0) {
+    EXPECT_GT(fast.nonmanifold_faces, 0);
+  }
+
+  // Broken tets (a repeated node) go through the reference path: still identical.
+  tets.push_back({perm[0], perm[0], perm[1], perm[2]});
+  expect_same_topology(build_topology(tets, n), build_topology_reference(tets, n));
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, TopologyAgainstReference, ::testing::Range(0, 12));
+
+TEST(TopologyAgainstReference, IdenticalOnTheBundledMeshes) {
+  for (const char* file : {"torus.msh", "ball.msh", "box.msh"}) {
+    auto mesh = read_mesh(test::mesh_path(file));
+    ASSERT_TRUE(mesh.has_value()) << mesh.error().message;
+    SCOPED_TRACE(file);
+    expect_same_topology(build_topology(mesh->tets, mesh->num_nodes()),
+                         build_topology_reference(mesh->tets, mesh->num_nodes()));
+  }
+}
+
+TEST(TopologyAgainstReference, IdenticalWithOneThread) {
+  const TetMesh m = test::structured_box(9, 7, 8, {0, 0, 0}, {1, 1, 1});
+  const Topology many = build_topology(m.tets, m.num_nodes());
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  expect_same_topology(build_topology(m.tets, m.num_nodes()), many);
+  expect_same_topology(many, build_topology_reference(m.tets, m.num_nodes()));
 }
 
 }  // namespace

@@ -74,19 +74,51 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
     std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
     node_tets_ = invert(owned, num_nodes_);
   }
+  // Edge ids by a binary search within the edges of the smaller node (the edges are
+  // sorted, so each node's edges (u, *) are contiguous).
+  std::vector<Index> edge_begin(static_cast<std::size_t>(num_nodes_) + 1, 0);
+  for (const auto& e : edges_) {
+    if (e[0] < 0 || e[0] >= num_nodes_)
+      throw std::invalid_argument("CollisionBody: topology edge node " + std::to_string(e[0]) +
+                                  " outside [0, " + std::to_string(num_nodes_) + ")");
+    ++edge_begin[static_cast<std::size_t>(e[0]) + 1];
+  }
+  for (std::size_t i = 0; i + 1 < edge_begin.size(); ++i) edge_begin[i + 1] += edge_begin[i];
   tet_edges_.resize(tets_.size());
-  for (std::size_t t = 0; t < tets_.size(); ++t)
-    for (int k = 0; k < 6; ++k) {
-      Index u = tets_[t][kTetEdges[k][0]], v = tets_[t][kTetEdges[k][1]];
-      if (u > v) std::swap(u, v);
-      const std::array<Index, 2> key{u, v};
-      const auto it = std::lower_bound(edges_.begin(), edges_.end(), key);
-      if (it == edges_.end() || *it != key)
-        throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
-                                    std::to_string(v) + ") of tet " + std::to_string(t) +
-                                    " is not in the topology");
-      tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
-    }
+  bool missing = false;
+  std::size_t missing_tet = 0;
+  int missing_edge = 0;
+  detail::for_chunks(tets_.size(), 8192, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t t = begin; t < end; ++t)
+      for (int k = 0; k < 6; ++k) {
+        Index u = tets_[t][kTetEdges[k][0]], v = tets_[t][kTetEdges[k][1]];
+        if (u > v) std::swap(u, v);
+        const auto first = edges_.begin() + edge_begin[u];
+        const auto last = edges_.begin() + edge_begin[u + 1];
+        const std::array<Index, 2> key{u, v};
+        const auto it = std::lower_bound(first, last, key);
+        if (it == last || *it != key) {
+          tet_edges_[t][k] = -1;
+          continue;
+        }
+        tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
+      }
+  });
+  for (std::size_t t = 0; t < tets_.size() && !missing; ++t)
+    for (int k = 0; k < 6 && !missing; ++k)
+      if (tet_edges_[t][k] < 0) {
+        missing = true;
+        missing_tet = t;
+        missing_edge = k;
+      }
+  if (missing) {
+    Index u = tets_[missing_tet][kTetEdges[missing_edge][0]];
+    Index v = tets_[missing_tet][kTetEdges[missing_edge][1]];
+    if (u > v) std::swap(u, v);
+    throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
+                                std::to_string(v) + ") of tet " + std::to_string(missing_tet) +
+                                " is not in the topology");
+  }
   edge_tets_ = invert(tet_edges_, static_cast<Index>(edges_.size()));
 }
 

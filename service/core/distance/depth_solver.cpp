@@ -220,12 +220,18 @@ struct BasicDepthSolver<D>::Impl {
         perm.push_back(v);
       }
 
-    std::vector<std::vector<Index>> rows(nn);
+    // Adjacency in internal numbering, written straight into CSR (no per-node vectors).
+    adjacency.offsets.assign(nn + 1, 0);
+    for (Index i = 0; i < n; ++i)
+      adjacency.offsets[i + 1] =
+          adjacency.offsets[i] + static_cast<Index>(topo.node_adjacency.row(perm[i]).size());
+    adjacency.indices.resize(static_cast<std::size_t>(adjacency.offsets[nn]));
     for (Index i = 0; i < n; ++i) {
-      for (const Index v : topo.node_adjacency.row(perm[i])) rows[i].push_back(inv[v]);
-      std::sort(rows[i].begin(), rows[i].end());
+      Index* row = adjacency.indices.data() + adjacency.offsets[i];
+      Index k = 0;
+      for (const Index v : topo.node_adjacency.row(perm[i])) row[k++] = inv[v];
+      std::sort(row, row + k);
     }
-    adjacency = csr_from_rows(rows);
 
     // Features renumbered in the order of their smallest internal node, so features
     // near each other on the surface are near each other in memory.

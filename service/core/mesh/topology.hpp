@@ -64,7 +64,14 @@ struct Topology {
 ///
 /// @param[in] tets       m tets; every index must be in [0, num_nodes) (validate first).
 /// @param[in] num_nodes  n.
+/// Meshes whose tets have 4 distinct nodes (any valid mesh) take a fast path:
+/// counting sorts, a radix sort of packed face keys and per-node adjacency rows, TBB
+/// over fixed chunks; the result is identical to build_topology_reference().
 Topology build_topology(std::span<const Tet> tets, Index num_nodes);
+
+/// The plain implementation (comparison sorts of every face, edge and incidence), used
+/// by build_topology() for other input (repeated nodes) and as the tests' reference.
+Topology build_topology_reference(std::span<const Tet> tets, Index num_nodes);
 
 /// Euler characteristic V - E + F of the boundary surface (2 for a ball, 0 for a torus,
 /// summed over components).

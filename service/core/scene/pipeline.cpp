@@ -1,6 +1,7 @@
 #include "core/scene/pipeline.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <chrono>
@@ -84,11 +85,16 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
   slot->topology = build_topology(mesh.tets, mesh.num_nodes());
   slot->positions = mesh.positions;
   slot->mesh = std::move(mesh);
-  slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology);
+  // The detection body and the depth solver only read the mesh and the topology:
+  // built side by side.
   DepthSolverOptions depth_options;
   depth_options.method = params.depth;
-  slot->depth = std::make_unique<DepthSolver>(std::span<const Tet>(slot->mesh.tets), slot->topology,
-                                              depth_options);
+  tbb::parallel_invoke(
+      [&] { slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology); },
+      [&] {
+        slot->depth = std::make_unique<DepthSolver>(std::span<const Tet>(slot->mesh.tets),
+                                                    slot->topology, depth_options);
+      });
   impl_->objects[object] = std::move(slot);
   return {};
 }

@@ -1,0 +1,141 @@
+// Whole pipeline (service/core/scene): what the service runs, without DDS.
+//
+//   TorusInBox/<threads>/<depth_um>   Pipeline::run_frame of the service's scene
+//       (bench/service_latency): data/meshes/box.msh static, data/meshes/torus.msh
+//       resting depth_um micrometres deep on it and bobbing by +-2 mm (one state per
+//       frame, the torus only). Counters: the stage split of FrameStats.
+//   Register/<cells>                  Pipeline::set_topology of a structured box of
+//       cells^3 x 6 tets (37: 303,918 tets, the service's "300k-tet object").
+//   BuildTopology/<cells>             build_topology alone on the same mesh.
+//
+// Results and commands: docs/BENCHMARKS.md (Detection).
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <numbers>
+#include <optional>
+
+#include "core/io/mesh_io.hpp"
+#include "core/mesh/topology.hpp"
+#include "core/scene/pipeline.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+std::optional<TetMesh> data_mesh(const char* name) {
+  const std::filesystem::path path = std::filesystem::path(TC_SOURCE_DIR) / "data/meshes" / name;
+  auto mesh = read_mesh(path);
+  if (!mesh) {
+    std::fprintf(stderr, "bench_pipeline: %s\n", mesh.error().message.c_str());
+    return std::nullopt;
+  }
+  return std::move(*mesh);
+}
+
+void TorusInBox(benchmark::State& state) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<std::size_t>(state.range(0)));
+  const double depth = static_cast<double>(state.range(1)) * 1e-6;
+  auto torus = data_mesh("torus.msh");
+  auto box = data_mesh("box.msh");
+  if (!torus || !box) {
+    state.SkipWithError("mesh not available");
+    return;
+  }
+  // As bench/service_latency: the torus' lowest point `depth` below the box top (z 0.15).
+  torus->positions.row(2).array() += 0.15 + 0.1 - depth;
+  Pipeline pipeline;
+  ObjectParams floor;
+  floor.is_static = true;
+  if (!pipeline.set_topology("box", 1, *box, floor) ||
+      !pipeline.set_topology("torus", 1, *torus, {})) {
+    state.SkipWithError("registration failed");
+    return;
+  }
+  std::vector<FrameObjectInput> states(1);
+  states[0].object = "torus";
+  states[0].topology_version = 1;
+  std::int64_t frame = 0;
+  double broad = 0.0, narrow = 0.0, depth_ms = 0.0, response = 0.0, total = 0.0;
+  std::size_t contacts = 0;
+  const auto run = [&] {
+    const double dz = 0.002 * std::sin(2.0 * std::numbers::pi * static_cast<double>(frame) / 500.0);
+    states[0].positions = torus->positions;
+    states[0].positions.row(2).array() += dz;
+    return pipeline.run_frame(frame++, states);
+  };
+  run();  // untimed: builds the trees, the static box's depth map, sizes the buffers
+  for (auto _ : state) {
+    const FrameOutput out = run();
+    benchmark::DoNotOptimize(out.forces.data());
+    broad += out.stats.broad_ms;
+    narrow += out.stats.narrow_ms;
+    depth_ms += out.stats.depth_ms;
+    response += out.stats.response_ms;
+    total += out.stats.total_ms;
+    contacts = out.stats.contacts;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["broad_ms"] = broad / n;
+  state.counters["narrow_ms"] = narrow / n;
+  state.counters["depth_ms"] = depth_ms / n;
+  state.counters["response_ms"] = response / n;
+  state.counters["total_ms"] = total / n;
+  state.counters["contacts"] = static_cast<double>(contacts);
+}
+
+TetMesh large_box(int cells) {
+  return test::structured_box(cells, cells, cells, Eigen::Vector3d::Zero(),
+                              Eigen::Vector3d::Ones());
+}
+
+void Register(benchmark::State& state) {
+  const TetMesh mesh = large_box(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    Pipeline pipeline;
+    const Status st = pipeline.set_topology("large", 1, mesh, {});
+    if (!st) state.SkipWithError(st.error().message.c_str());
+    benchmark::ClobberMemory();
+  }
+  state.counters["tets"] = static_cast<double>(mesh.num_tets());
+}
+
+void BuildTopology(benchmark::State& state) {
+  const TetMesh mesh = large_box(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+    benchmark::DoNotOptimize(topo.edges.data());
+  }
+  state.counters["tets"] = static_cast<double>(mesh.num_tets());
+}
+
+BENCHMARK(TorusInBox)
+    ->Args({1, 5000})
+    ->Args({2, 5000})
+    ->Args({1, 10000})
+    ->Args({2, 10000})
+    ->ArgNames({"threads", "depth_um"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+BENCHMARK(Register)
+    ->Arg(37)
+    ->ArgName("cells")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+BENCHMARK(BuildTopology)
+    ->Arg(37)
+    ->ArgName("cells")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
+}  // namespace
+}  // namespace tc
+
+BENCHMARK_MAIN();
