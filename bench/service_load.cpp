@@ -202,9 +202,9 @@ struct Worker {
       if (line == "streaming") return true;
     return false;
   }
+  int exit_status = 0;  ///< waitpid status once exited
   [[nodiscard]] bool exited() {
-    int status = 0;
-    return pid > 0 && waitpid(pid, &status, WNOHANG) == pid && ((pid = -1), true);
+    return pid > 0 && waitpid(pid, &exit_status, WNOHANG) == pid && ((pid = -1), true);
   }
   int wait() {
     int status = 0;
@@ -250,7 +250,11 @@ bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::durati
   while (Clock::now() < deadline) {
     bool all = true;
     for (auto& w : workers) {
-      if (w->exited()) return false;
+      if (w->exited()) {
+        std::fprintf(stderr, "worker %s exited before streaming (status %d)\n", w->err.c_str(),
+                     w->exit_status);
+        return false;
+      }
       all = all && w->streaming();
     }
     if (all) return true;

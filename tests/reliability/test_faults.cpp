@@ -241,9 +241,16 @@ TEST_F(Faults, ServiceKilledAndRestartedTenTimes) {
               bench::percentile(recovery_ms, 0.5), bench::percentile(recovery_ms, 1.0));
 }
 
+/// The iptables program (Debian package iptables, in the Makefile's DEB_PACKAGES), or "".
+std::string iptables() {
+  for (const char* p : {"/usr/sbin/iptables", "/sbin/iptables", "/usr/bin/iptables"})
+    if (std::filesystem::exists(p)) return p;
+  return "";
+}
+
 /// Packets counted by the first two rules of the INPUT chain (dropped, accepted).
 std::pair<long, long> iptables_counts() {
-  const auto r = run_program({"iptables", "-L", "INPUT", "-v", "-x", "-n"}, 10s);
+  const auto r = run_program({iptables(), "-L", "INPUT", "-v", "-x", "-n"}, 10s);
   std::istringstream in(r.out);
   std::string line;
   std::vector<long> pkts;
@@ -274,11 +281,13 @@ TEST_P(Loss, EveryFrameAnsweredWithTheLosslessForces) {
   }
   ASSERT_EQ(reference.size(), static_cast<std::size_t>(kFrames));
   const std::string p = std::to_string(GetParam() / 100.0);
-  const auto add = run_program({"iptables", "-A", "INPUT", "-i", "lo", "-p", "udp", "-m",
+  ASSERT_FALSE(iptables().empty()) << "iptables is missing: make deps installs it";
+  ASSERT_EQ(run_program({iptables(), "-F", "INPUT"}, 10s).exit_code, 0);
+  const auto add = run_program({iptables(), "-A", "INPUT", "-i", "lo", "-p", "udp", "-m",
                                 "statistic", "--mode", "random", "--probability", p, "-j", "DROP"},
                                10s);
   ASSERT_EQ(add.exit_code, 0) << add.err;
-  ASSERT_EQ(run_program({"iptables", "-A", "INPUT", "-i", "lo", "-p", "udp", "-j", "ACCEPT"}, 10s)
+  ASSERT_EQ(run_program({iptables(), "-A", "INPUT", "-i", "lo", "-p", "udp", "-j", "ACCEPT"}, 10s)
                 .exit_code,
             0);
   const auto t0 = Clock::now();
@@ -420,6 +429,17 @@ TEST_F(Faults, StoppedClientBlocksNeitherTheServiceNorOtherClients) {
   const auto last_answered = summary["last_answered_frame"].get<std::int64_t>();
   // Answered up to its newest frames after SIGCONT (60 Hz, 2 s after the stop).
   EXPECT_GE(last_answered, last_published - 10);
+  // Its objects were declared dead during the stop (lease 1 s) and removed; the client
+  // library registered them again by itself, so it lost at most a few frames to
+  // unknown_object answers after SIGCONT.
+  const auto rejected = summary["frames_rejected"].get<std::int64_t>();
+  const bool removed =
+      daemon_->log_text().find("stopped_client/obj0: removed") != std::string::npos;
+  std::printf(
+      "[ figure ] stopped client: objects removed during the stop: %s; frames answered "
+      "unknown_object after SIGCONT: %lld\n",
+      removed ? "yes" : "no", static_cast<long long>(rejected));
+  EXPECT_LT(rejected, 30);
   std::printf(
       "[ figure ] client stopped 4 s: other client's lock-step latency max %.1f ms "
       "while stopped (max %.1f ms overall); stopped client answered up to frame %lld "
