@@ -75,6 +75,7 @@ struct WorkerArgs {
   int cells = 38;
   double rate = 60.0;
   double seconds = 0.0;
+  std::string go;  ///< when set: after registering, print "registered", wait for this file
 };
 
 /// Object k of a worker: a unit box shifted by 0.98 k along x (2% overlap with k-1).
@@ -125,6 +126,14 @@ int run_worker(const WorkerArgs& a) {
     rejected += f.ok() ? 0 : 1;
     sent.erase(sent.begin(), std::next(it));
   });
+  if (!a.go.empty()) {
+    // Load mode: every worker streams in the same window, after all are registered.
+    std::fprintf(stderr, "registered\n");
+    std::fflush(stderr);
+    const auto until = Clock::now() + 600s;
+    while (!std::filesystem::exists(a.go) && Clock::now() < until && !g_stop.load())
+      std::this_thread::sleep_for(10ms);
+  }
   std::fprintf(stderr, "streaming\n");
   std::fflush(stderr);
 
@@ -195,11 +204,11 @@ struct Worker {
     }
     return true;
   }
-  [[nodiscard]] bool streaming() const {
+  [[nodiscard]] bool says(const std::string& marker) const {
     std::ifstream in(err);
     std::string line;
     while (std::getline(in, line))
-      if (line == "streaming") return true;
+      if (line == marker) return true;
     return false;
   }
   int exit_status = 0;  ///< waitpid status once exited
@@ -237,15 +246,19 @@ std::vector<std::unique_ptr<Worker>> start_workers(const std::filesystem::path& 
     w->err = dir / (scene + ".err");
     if (!w->start({"service_load", "--worker", "--domain", std::to_string(domain), "--scene", scene,
                    "--objects", std::to_string(objects), "--cells", std::to_string(cells), "--rate",
-                   std::to_string(rate), "--seconds", std::to_string(seconds)}))
+                   std::to_string(rate), "--seconds", std::to_string(seconds), "--go",
+                   (dir / "go").string()}))
       throw std::runtime_error("fork failed");
     workers.push_back(std::move(w));
   }
   return workers;
 }
 
-/// Waits until every worker streams; false when one exits first or after `timeout`.
+/// Waits until every worker has registered its objects, then lets them all stream at
+/// once; false when one exits first or after `timeout`.
 bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::duration timeout) {
+  if (workers.empty()) return true;
+  const auto go = workers.front()->err.parent_path() / "go";
   const auto deadline = Clock::now() + timeout;
   while (Clock::now() < deadline) {
     bool all = true;
@@ -255,9 +268,12 @@ bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::durati
                      w->exit_status);
         return false;
       }
-      all = all && w->streaming();
+      all = all && w->says("registered");
     }
-    if (all) return true;
+    if (all) {
+      std::ofstream{go} << "go\n";
+      return true;
+    }
     std::this_thread::sleep_for(50ms);
   }
   return false;
@@ -484,6 +500,7 @@ int main(int argc, char** argv) {
   app.add_option("--rate", load.rate, "States per second per client");
   app.add_option("--seconds", seconds, "Duration (load 20, soak 180, worker 0 = until SIGTERM)");
   app.add_option("--cycles", cycles, "Soak: register/unregister cycles");
+  app.add_option("--go", w.go, "Worker: wait for this file after registering");
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
   if (std::getenv("CYCLONEDDS_URI") == nullptr)
