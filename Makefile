@@ -5,13 +5,13 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspdlog-dev \
   libgtest-dev libgmock-dev libbenchmark-dev cyclonedds-dev cyclonedds-tools libyaml-cpp-dev \
-  nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev clang libclang-rt-14-dev
+  nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev clang libclang-rt-14-dev iptables
 # DDS Security tests and profile (config/security/make_test_pki.sh)
 DEB_PACKAGES += openssl
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan fuzz fuzz-short fuzz-build demo format \
-  format-check bench clean help
+  format-check bench clean help reliability load soak
 # Seconds each fuzz target runs in `make fuzz` / `make fuzz-short` (CI).
 FUZZ_SECONDS ?= 60
 FUZZ_SHORT_SECONDS ?= 15
@@ -28,6 +28,9 @@ help:
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job on embedded defaults"
 	@echo "make format      clang-format every source file"
+	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
+	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"
+	@echo "make soak        3 minutes, 20 register/unregister cycles while streaming"
 
 deps:
 	@missing=$$(for p in $(DEB_PACKAGES); do \
@@ -78,6 +81,16 @@ bench: build
 .PHONY: bench-security
 bench-security: build
 	./bench/security_cost.sh $(BUILD_DIR)
+
+# docs/RELIABILITY.md: fault tests (also part of `make test`), load and soak figures.
+reliability: build
+	set -o pipefail; cd $(BUILD_DIR) && ctest -L reliability --output-on-failure -V | grep -E '\[ figure \]|tests passed|Failed|Test +#'
+
+load: build
+	tests/integration/run_isolated.sh $(BUILD_DIR)/bin/service_load --daemon $(BUILD_DIR)/bin/tetcollided
+
+soak: build
+	tests/integration/run_isolated.sh $(BUILD_DIR)/bin/service_load --soak --daemon $(BUILD_DIR)/bin/tetcollided
 
 format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

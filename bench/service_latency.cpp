@@ -48,6 +48,7 @@
 
 #include "core/io/mesh_io.hpp"
 #include "protocol.hpp"
+#include "service_common.hpp"
 #include "test_meshes.hpp"
 #include "tetcollide/client.hpp"
 
@@ -56,76 +57,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto k = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, k == 0 ? 0 : k - 1)];
-}
-
-tc::client::Mesh to_client(const tc::TetMesh& m, const Eigen::Vector3d& offset) {
-  tc::client::Mesh out;
-  out.node_ids = m.node_ids;
-  out.rest_positions.resize(static_cast<std::size_t>(3 * m.num_nodes()));
-  for (tc::Index i = 0; i < m.num_nodes(); ++i)
-    for (int c = 0; c < 3; ++c)
-      out.rest_positions[static_cast<std::size_t>(3 * i + c)] = m.positions(c, i) + offset[c];
-  for (const auto& t : m.tets) out.tets.insert(out.tets.end(), t.begin(), t.end());
-  return out;
-}
-
-/// utime + stime of /proc/<pid>/stat ("self" for this process), seconds; 0 when unreadable.
-double process_cpu_s(const std::string& pid) {
-  std::ifstream in("/proc/" + pid + "/stat");
-  std::string text;
-  std::getline(in, text);              // one line
-  const auto close = text.rfind(')');  // the command name may contain spaces
-  if (close == std::string::npos) return 0.0;
-  std::istringstream fields(text.substr(close + 2));
-  std::string field;
-  double ticks = 0.0;
-  // Fields after the name start at 3 (state); utime and stime are fields 14 and 15.
-  for (int k = 3; k <= 15 && fields >> field; ++k)
-    if (k >= 14) ticks += std::stod(field);
-  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
-}
-
-/// A daemon started by the benchmark.
-struct Daemon {
-  pid_t pid = -1;
-  ~Daemon() {
-    if (pid > 0) {
-      kill(pid, SIGTERM);
-      int status = 0;
-      waitpid(pid, &status, 0);
-    }
-  }
-  bool start(const std::string& path, std::uint32_t domain, const std::string& config) {
-    const pid_t parent = getpid();
-    pid = fork();
-    if (pid < 0) return false;
-    if (pid == 0) {
-      prctl(PR_SET_PDEATHSIG, SIGKILL);
-      if (getppid() != parent) _exit(127);
-      const int null = open("/dev/null", O_WRONLY);
-      dup2(null, STDOUT_FILENO);
-      const std::string d = std::to_string(domain);
-      execl(path.c_str(), path.c_str(), "--config", config.c_str(), "--domain", d.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    return true;
-  }
-  /// CPU time (user + system, every thread) the daemon has used so far, seconds.
-  [[nodiscard]] double cpu_s() const { return process_cpu_s(std::to_string(pid)); }
-  [[nodiscard]] double rss_mb() const {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-    std::string line;
-    while (std::getline(in, line))
-      if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-    return 0.0;
-  }
-};
+using tc::bench::Daemon;
+using tc::bench::percentile;
+using tc::bench::to_client;
 
 /// FrameStats.compute_ms per frame of one scene, read on its own participant.
 class StatsReader {
@@ -257,7 +191,7 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
   for (int f = 0; f < warmup + frames; ++f) {
     if (f == warmup) {
       daemon_cpu0 = daemon != nullptr ? daemon->cpu_s() : 0.0;
-      client_cpu0 = process_cpu_s("self");
+      client_cpu0 = tc::bench::proc_figures(getpid()).cpu_s;
     }
     next += period;
     std::this_thread::sleep_until(next);
@@ -290,7 +224,7 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
     std::this_thread::sleep_for(1ms);
   }
   const double daemon_cpu = daemon != nullptr ? daemon->cpu_s() - daemon_cpu0 : 0.0;
-  const double client_cpu = process_cpu_s("self") - client_cpu0;
+  const double client_cpu = tc::bench::proc_figures(getpid()).cpu_s - client_cpu0;
   if (!args.wait) c->set_forces_callback(nullptr);
   stats.drain();
 

@@ -68,6 +68,11 @@ QosPtr topic_qos(Topic topic) {
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStatusDepth);
       break;
   }
+  // Every writer asserts its liveliness automatically (its participant does, while the
+  // process runs) and is declared dead kLivelinessLease after it stopped: a killed
+  // simulator's objects leave the scene about 1 s later instead of after Cyclone's 10 s
+  // participant lease.
+  dds_qset_liveliness(qos.get(), DDS_LIVELINESS_AUTOMATIC, kLivelinessLease);
   return qos;
 }
 

@@ -30,6 +30,9 @@ inline constexpr std::int32_t kStateDepth = 1;
 inline constexpr std::int32_t kForcesDepth = 8;
 inline constexpr std::int32_t kStatsDepth = 16;
 inline constexpr std::int32_t kStatusDepth = 32;
+/// Liveliness lease of every writer (AUTOMATIC): a writer whose process stopped
+/// asserting it for this long is declared dead (docs/PROTOCOL.md).
+inline constexpr dds_duration_t kLivelinessLease = DDS_SECS(1);
 
 struct QosDeleter {
   void operator()(dds_qos_t* qos) const noexcept { dds_delete_qos(qos); }

@@ -130,6 +130,12 @@ struct Client::Impl {
     return all;
   }
 
+  [[nodiscard]] bool published_in(std::int64_t frame, const std::string& object) const {
+    const auto it = sent.find(frame);
+    return it != sent.end() &&
+           std::find(it->second.begin(), it->second.end(), object) != it->second.end();
+  }
+
   [[nodiscard]] bool complete(std::int64_t frame) const {
     const auto it = answers.find(frame);
     if (it == answers.end()) return false;
@@ -201,6 +207,12 @@ struct Client::Impl {
           f.frame = s->frame;
           f.topology_version = s->topology_version;
           f.status = s->status;
+          f.state_frame = s->state_frame;
+          // An answer computed without the state this client published for that frame
+          // (the frame was dispatched before the state arrived, e.g. delayed by packet
+          // loss) is not the answer to it: the service answers the frame again once the
+          // state is in. Keep waiting for that one.
+          if (f.status == 0 && f.state_frame != f.frame && published_in(f.frame, object)) continue;
           f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
           f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
           f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);

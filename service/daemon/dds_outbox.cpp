@@ -93,6 +93,7 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   s.frame = m.frame;
   s.topology_version = m.topology_version;
   s.status = m.status;
+  s.state_frame = m.state_frame;
   protocol::borrow(s.nodes, const_cast<Index*>(m.nodes.data()), m.nodes.size());
   protocol::borrow(s.forces, const_cast<double*>(m.forces.data()), m.forces.size());
   protocol::borrow(s.stiffness, const_cast<double*>(m.stiffness.data()), m.stiffness.size());

@@ -23,6 +23,8 @@ struct ForcesMessage {
   std::span<const Index> nodes;       ///< k sorted node indices
   std::span<const double> forces;     ///< 3k, newtons
   std::span<const double> stiffness;  ///< 9k row-major df/dx blocks, or empty
+  /// Frame of the object's state the forces were computed from (-1: rest positions).
+  std::int64_t state_frame = -1;
 };
 
 /// One scene's frame timings and counts (FrameStats topic).

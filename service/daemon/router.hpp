@@ -75,8 +75,8 @@ class Router {
   void release_held(const std::string& scene_name, Scene& scene, const std::string& object,
                     Clock::time_point now);
   void hold(const StateView& state, Clock::time_point now);
-  [[nodiscard]] bool holds_state_of_registered(const std::string& scene_name,
-                                               const Scene& scene) const;
+  /// True while a state of the scene waits for its topology (within the grace).
+  [[nodiscard]] bool holds_state(const std::string& scene_name) const;
   void answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
                   std::uint32_t version, std::int32_t code);
   void report(std::int32_t code, std::string_view scene, std::string_view object,

@@ -77,6 +77,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
   msg.topology_timestamp = job.source_timestamp;
   if (st) {
     active_[job.object] = job.version;
+    state_frame_.erase(job.object);  // a new version starts from its rest positions
     msg.kind = StatusKind::kRegistered;
     msg.code = tetcollide_STATUS_OK;
     msg.message = "registered topology version " + std::to_string(job.version) + ": " +
@@ -107,6 +108,7 @@ void SceneRunner::run_remove(const RemoveJob& job) {
   msg.topology_version = it->second;
   msg.message = "object removed";
   active_.erase(it);
+  state_frame_.erase(job.object);
   spdlog::info("{}/{}: removed", scene_, job.object);
   outbox_.publish_status(msg);
 }
@@ -153,9 +155,17 @@ void SceneRunner::run_frame(FrameJob& job) {
       f.frame = job.frame;
       f.topology_version = version;
       f.status = tetcollide_STATUS_INTERNAL;
+      f.state_frame = job.frame;
       outbox_.publish_forces(f);
     }
   } else {
+    // The positions each object now holds in the pipeline came from these states.
+    for (std::size_t i = 0; i < job.states.size() && i < job.state_frames.size(); ++i) {
+      const std::string& name = job.states[i].object;
+      const bool rejected = std::any_of(output.errors.begin(), output.errors.end(),
+                                        [&](const auto& e) { return e.object == name; });
+      if (!rejected && active_.count(name) != 0) state_frame_[name] = job.state_frames[i];
+    }
     publish_answers(job, output);
   }
   const auto published = Clock::now();
@@ -215,6 +225,10 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     msg.object = name;
     msg.topology_version = version;
     msg.status = error_of(name);
+    const auto sf = state_frame_.find(name);
+    msg.state_frame = msg.status != tetcollide_STATUS_OK ? job.frame
+                      : sf != state_frame_.end()         ? sf->second
+                                                         : -1;
     msg.nodes = {};
     msg.forces = {};
     msg.stiffness = {};
@@ -243,6 +257,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     m.frame = job.frame;
     m.topology_version = version;
     m.status = code;
+    m.state_frame = job.frame;
     outbox_.publish_forces(m);
   };
   for (const auto& r : job.rejected) answer_unheld(r.object, r.version, r.code);

@@ -41,6 +41,7 @@ struct RejectedState {
 struct FrameJob {
   std::int64_t frame = 0;
   std::vector<FrameObjectInput> states;
+  std::vector<std::int64_t> state_frames;  ///< frame number of each of `states`
   std::vector<RejectedState> rejected;
   Clock::time_point first_received{};
   Clock::time_point dispatched{};
@@ -80,7 +81,9 @@ class SceneRunner {
   Outbox& outbox_;
   TopologyResultSink on_topology_;
   std::map<std::string, std::uint32_t, std::less<>> active_;  ///< object -> version held
-  std::vector<double> stiffness_rows_;                        ///< reused per object
+  /// object -> frame of the newest state the pipeline used (absent: rest positions)
+  std::map<std::string, std::int64_t, std::less<>> state_frame_;
+  std::vector<double> stiffness_rows_;  ///< reused per object
 
   // Periodic timing summary.
   std::chrono::duration<double> summary_period_;

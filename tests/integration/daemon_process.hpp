@@ -46,6 +46,8 @@ class DaemonProcess {
   void kill_hard();
 
   [[nodiscard]] bool running() const { return pid_ > 0; }
+  /// Process id while running (to signal or to read /proc), else -1.
+  [[nodiscard]] pid_t pid() const { return pid_; }
   [[nodiscard]] std::string log_text() const;
   [[nodiscard]] std::filesystem::path log_path() const { return log_; }
   /// Waits until the log contains `text`. False on timeout.
@@ -72,6 +74,8 @@ class ChildProcess {
              const std::filesystem::path& err);
   /// Sends `sig`, waits for the exit; returns the exit code, or -1 (killed, timeout).
   int stop(int sig, std::chrono::milliseconds timeout = std::chrono::seconds(20));
+  /// Process id while running, else -1.
+  [[nodiscard]] pid_t pid() const { return pid_; }
 
  private:
   pid_t pid_ = -1;

@@ -5,6 +5,7 @@
 # domain id and the loopback-only Cyclone config keep tests apart).
 if command -v unshare >/dev/null 2>&1 && command -v ip >/dev/null 2>&1 &&
    unshare -rn true >/dev/null 2>&1; then
-  exec unshare -rn sh -c 'ip link set lo up && exec "$@"' sh "$@"
+  # TC_PRIVATE_NETNS tells tests they may change the namespace's network (packet loss).
+  exec unshare -rn sh -c 'ip link set lo up && TC_PRIVATE_NETNS=1 exec "$@"' sh "$@"
 fi
 exec "$@"

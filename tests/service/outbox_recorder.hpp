@@ -20,6 +20,7 @@ struct Forces {
   std::vector<Index> nodes;
   std::vector<double> forces;
   std::vector<double> stiffness;
+  std::int64_t state_frame = -1;
 };
 
 struct Stats {
@@ -41,7 +42,8 @@ class OutboxRecorder final : public Outbox {
                       m.status,
                       {m.nodes.begin(), m.nodes.end()},
                       {m.forces.begin(), m.forces.end()},
-                      {m.stiffness.begin(), m.stiffness.end()}});
+                      {m.stiffness.begin(), m.stiffness.end()},
+                      m.state_frame});
   }
   void publish_stats(const StatsMessage& m) override {
     std::lock_guard lock(mutex_);

@@ -262,6 +262,35 @@ TEST_F(RouterTest, StateBeforeTopologyIsUsedWhenTopologyArrives) {
   EXPECT_TRUE(outbox.errors().empty());
 }
 
+// After a service restart the topologies come back one by one: a frame whose other
+// object's topology is still on the wire waits for it (within the grace) instead of being
+// computed without that object.
+TEST_F(RouterTest, FrameWaitsForAStateWhoseTopologyIsOnTheWire) {
+  add_object("s", "a");
+  send("s", "b", 7);  // b's topology not in yet: held
+  send("s", "a", 7);  // a is the only registered object: complete, but b is held
+  router().tick(now + milliseconds(20));  // past the assembly wait, within the grace
+  EXPECT_TRUE(jobs.frames().empty());
+  add_object("s", "b");  // b's topology arrives: frame 7 runs with both states
+  const auto frames = jobs.frames();
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].frame, 7);
+  EXPECT_EQ(frames[0].states.size(), 2u);
+  EXPECT_EQ(frames[0].state_frames, (std::vector<std::int64_t>{7, 7}));
+}
+
+// A state for an object that never comes delays its scene's frame by the grace at most.
+TEST_F(RouterTest, AHeldStateDelaysTheFrameByTheGraceAtMost) {
+  add_object("s", "a");
+  send("s", "ghost", 3);
+  send("s", "a", 3);
+  router().tick(now + milliseconds(49));
+  EXPECT_TRUE(jobs.frames().empty());
+  router().tick(now + milliseconds(50));  // ghost rejected; frame 3 goes
+  ASSERT_EQ(jobs.frames().size(), 1u);
+  EXPECT_EQ(jobs.frames()[0].states.size(), 1u);
+}
+
 TEST_F(RouterTest, StaleVersionRejected) {
   add_object("s", "a", 1);
   add_object("s", "a", 2);  // a cut

@@ -35,6 +35,7 @@ class SceneRunnerTest : public ::testing::Test {
     FrameJob j;
     j.frame = f;
     j.states = std::move(states);
+    j.state_frames.assign(j.states.size(), f);
     j.rejected = std::move(rejected);
     j.first_received = j.dispatched = Clock::now();
     j.complete = true;
@@ -114,6 +115,36 @@ TEST_F(SceneRunnerTest, RejectedStatesAreAnsweredWithTheirCode) {
   EXPECT_EQ(answers[2].object, "ghost");
   EXPECT_EQ(answers[2].status, tetcollide_STATUS_UNKNOWN_OBJECT);
   EXPECT_EQ(outbox_.stats[0].rejected, 2u);
+}
+
+// ContactForces.state_frame says which state each object's forces come from, so a client
+// can tell the answer to its frame from one computed before its state arrived.
+TEST_F(SceneRunnerTest, AnswersNameTheStateTheyWereComputedFrom) {
+  add("a", 1, box_at(0.0));
+  add("b", 1, box_at(0.8));
+  const TetMesh a = box_at(0.0);
+  const TetMesh b = box_at(0.8);
+  frame(4, {FrameObjectInput{"a", 1, a.positions}});  // b's state not in (yet)
+  auto answers = outbox_.forces_of("s", 4);
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_EQ(answers[0].state_frame, 4);
+  EXPECT_EQ(answers[1].state_frame, -1);              // b still at rest
+  frame(4, {FrameObjectInput{"b", 1, b.positions}});  // b's late state: frame 4 again
+  answers = outbox_.forces_of("s", 4);
+  ASSERT_EQ(answers.size(), 4u);
+  EXPECT_EQ(answers[2].state_frame, 4);  // a kept its frame-4 positions
+  EXPECT_EQ(answers[3].state_frame, 4);
+  frame(5, {FrameObjectInput{"a", 1, a.positions}},
+        {RejectedState{"b", 1, tetcollide_STATUS_INVALID_MESH}});
+  answers = outbox_.forces_of("s", 5);
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_EQ(answers[0].state_frame, 5);
+  EXPECT_EQ(answers[1].state_frame, 5);  // rejected answers carry their frame
+  add("b", 2, box_at(0.8));              // a cut: b starts again from rest
+  frame(6, {FrameObjectInput{"a", 1, a.positions}});
+  answers = outbox_.forces_of("s", 6);
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_EQ(answers[1].state_frame, -1);
 }
 
 TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {

@@ -97,6 +97,9 @@ struct ObjectForces {
   std::vector<std::int32_t> nodes;  ///< k sorted node indices
   std::vector<double> forces;       ///< 3k, newtons
   std::vector<double> stiffness;    ///< 9k row-major df/dx blocks (N/m), or empty
+  /// Frame of this object's state the forces were computed from (== frame for answers
+  /// this client waits for; -1: rest positions). See ContactForces.state_frame.
+  std::int64_t state_frame = -1;
 };
 
 /// Every answer of one frame for this client's objects, sorted by object name.
