@@ -20,8 +20,10 @@
 #include "cli_common.hpp"
 #include "core/io/mesh_io.hpp"
 #include "demo_support.hpp"
+#include "core/mesh/topology.hpp"
 #include "penetration.hpp"
 #include "recording.hpp"
+#include "render.hpp"
 #include "scene_file.hpp"
 #include "tetcollide/client.hpp"
 
@@ -102,6 +104,7 @@ struct Entry {
   client::ObjectParams params;
   Eigen::Matrix3Xd contact;  // this frame's forces, 3 x n
   Eigen::Matrix3Xd zero_velocity;
+  std::vector<std::array<std::int32_t, 3>> surface;  // boundary faces, for the pictures
   [[nodiscard]] const Eigen::Matrix3Xd& positions() const {
     return body ? body->positions() : fixed.positions;
   }
@@ -110,6 +113,42 @@ struct Entry {
     return body ? body->velocities() : zero_velocity;
   }
 };
+
+std::vector<std::array<std::int32_t, 3>> boundary_of(const TetMesh& mesh) {
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
+}
+
+/// Draws the scene's objects at their current positions into `path`.
+Status render_frame(const std::vector<Entry>& entries, const sim::SceneSpec& scene, int frame,
+                    double max_depth_mm, const std::filesystem::path& path) {
+  std::vector<viz::Surface> surfaces;
+  for (const auto& e : entries) {
+    viz::Surface s;
+    s.positions = &e.positions();
+    s.triangles = e.surface;
+    s.base_color = e.spec.color.cast<float>();
+    surfaces.push_back(std::move(s));
+  }
+  viz::Camera cam;
+  if (scene.camera.set) {
+    cam.eye = scene.camera.eye;
+    cam.target = scene.camera.target;
+    cam.up = scene.camera.up;
+    cam.fov_deg = scene.camera.fov_deg;
+    cam.width = scene.image_width;
+    cam.height = scene.image_height;
+  } else {
+    cam = viz::fit_camera(surfaces, Eigen::Vector3d(-1.0, 1.2, -0.7), scene.image_width,
+                          scene.image_height);
+  }
+  viz::RenderOptions options;
+  char title[160];
+  std::snprintf(title, sizeof title, "%s  frame %d  t = %.3f s  max penetration %.2f mm",
+                scene.name.c_str(), frame, frame * scene.dt, max_depth_mm);
+  options.title = title;
+  return viz::write_png(viz::render(surfaces, cam, options), path.string());
+}
 
 /// Progress on stderr: a bar redrawn in place on a terminal, a line per 10 % otherwise.
 class Progress {
@@ -209,6 +248,7 @@ int run_demo(const DemoArgs& args) {
       if (o.fix_border > 0.0) body->fix_nodes(body->border_nodes(o.fix_border, o.fix_border));
       e.body = std::move(*body);
     }
+    e.surface = boundary_of(e.mesh());
     entries.push_back(std::move(e));
   }
   double stable = std::numeric_limits<double>::infinity();
@@ -379,12 +419,12 @@ int run_demo(const DemoArgs& args) {
     last_contacts = contacts;
     // Local check of the service's work: how deep does any node sit in another object?
     const bool vtu_due = f % scene.output_every == 0 || f == frames - 1;
-    const bool render = std::find(scene.render_frames.begin(), scene.render_frames.end(), f) !=
+    const bool png_due = std::find(scene.render_frames.begin(), scene.render_frames.end(), f) !=
                             scene.render_frames.end() ||
                         (f == frames - 1 && !scene.render_frames.empty() &&
                          *std::max_element(scene.render_frames.begin(), scene.render_frames.end()) >= frames);
     std::vector<std::vector<double>> depth;
-    if (contacts > 0 || vtu_due) {
+    if (contacts > 0 || vtu_due || png_due) {
       std::vector<const Eigen::Matrix3Xd*> xs;
       for (const auto& e : entries) xs.push_back(&e.positions());
       depth = probe.measure(xs);
@@ -436,7 +476,16 @@ int run_demo(const DemoArgs& args) {
       if (auto st = write_vtu(out / name, all, point, cell); !st) return report_error(st.error());
       pvd.push_back({f * scene.dt, name});
     }
-    (void)render;
+    if (png_due) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%04d.png", f);
+      double deepest = 0.0;
+      for (const auto& d : depth)
+        for (const double v : d) deepest = std::max(deepest, v);
+      if (auto st = render_frame(entries, scene, f, deepest * 1e3, out / name); !st)
+        return report_error(st.error());
+      pngs.push_back(name);
+    }
     // ---- integrate ----
     for (auto& e : entries) {
       if (!e.body) continue;
@@ -460,6 +509,7 @@ int run_demo(const DemoArgs& args) {
       if (first_tear < 0) first_tear = f;
       c->register_object(e.spec.name, to_client_mesh(e.body->rest_mesh()), e.params);
       probe.set_object(i, e.body->rest_mesh().tets, e.body->node_count());
+      e.surface = boundary_of(e.body->rest_mesh());
       const auto r = c->wait_registered(e.spec.name, 20s);
       if (!r.done || !r.ok)
         return report_error("the service did not register version " +
@@ -540,6 +590,24 @@ int run_demo(const DemoArgs& args) {
          {"response", "#d62728", response},
          {"publish", "#9467bd", publish}});
   }
+  {
+    const std::vector<viz::Series> lines{{"round trip (client)", rt_matched, {0, 0, 0}},
+                                         {"compute (pipeline)", compute, {127, 127, 127}},
+                                         {"broad phase", broad, {31, 119, 180}},
+                                         {"narrow phase", narrow, {255, 127, 14}},
+                                         {"depth", depth_ms, {44, 160, 44}},
+                                         {"response", response, {214, 39, 40}},
+                                         {"publish", publish, {148, 103, 189}}};
+    viz::PlotOptions po;
+    po.title = "Collision time per frame by stage (" + scene.name + ")";
+    po.x_label = "frame";
+    po.y_label = "milliseconds";
+    po.width = 1000;
+    po.height = 500;
+    if (auto st = viz::write_png(viz::plot_lines(xs, lines, po), (out / "stage_times.png").string());
+        !st)
+      return report_error(st.error());
+  }
   const double drift_rel = ke_max > 0.0 ? std::abs(energy_drift) / ke_max : 0.0;
   nlohmann::json summary = {
       {"scene", scene.name},
@@ -577,6 +645,7 @@ int run_demo(const DemoArgs& args) {
        {{"pvd", scene.name + ".pvd"},
         {"vtu", pvd.size()},
         {"png", pngs},
+        {"stage_times_png", "stage_times.png"},
         {"stage_times_csv", "stage_times.csv"},
         {"stage_times_svg", "stage_times.svg"}}}};
   summary["topology_versions"] = versions;
@@ -615,7 +684,7 @@ int run_demo(const DemoArgs& args) {
   std::printf("     %s.pvd + %zu frame_NNNN.vtu (ParaView; fields depth, force, velocity, object)\n",
               scene.name.c_str(), pvd.size());
   for (const auto& p : pngs) std::printf("     %s\n", p.c_str());
-  std::printf("     stage_times.svg, stage_times.csv, summary.json\n");
+  std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
   (void)last_contacts;
   if (args.spawn_daemon && daemon_exit != 0)
     std::fprintf(stderr, "tetcollide: warning: tetcollided exited with %d\n", daemon_exit);

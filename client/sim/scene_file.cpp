@@ -89,9 +89,12 @@ class Parser {
       for (const auto& dir : search_)
         if (std::filesystem::exists(dir / p)) return dir / p;
     }
-    std::string tried;
-    for (const auto& dir : search_) tried += " " + (dir / p).string();
-    fail(node, "mesh '" + file + "' not found (tried" + tried + ")", ErrorCode::kIo);
+    // Appended piece by piece: GCC 12 reports a false -Wrestrict on chained operator+.
+    std::ostringstream msg;
+    msg << "mesh '" << file << "' not found (tried";
+    for (const auto& dir : search_) msg << ' ' << (dir / p).string();
+    msg << ')';
+    fail(node, msg.str(), ErrorCode::kIo);
   }
 
   ObjectSpec object(const YAML::Node& n, bool in_rain) const {
