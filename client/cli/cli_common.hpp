@@ -42,6 +42,7 @@ void add_detect_command(CLI::App& app, Context& ctx);
 void add_respond_command(CLI::App& app, Context& ctx);
 void add_distance_command(CLI::App& app, Context& ctx);
 void add_bench_command(CLI::App& app, Context& ctx);
+void add_render_command(CLI::App& app, Context& ctx);
 #ifdef TC_WITH_SERVICE
 void add_record_command(CLI::App& app, Context& ctx);
 void add_replay_command(CLI::App& app, Context& ctx);

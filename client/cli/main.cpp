@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   tc::cli::add_respond_command(app, ctx);
   tc::cli::add_distance_command(app, ctx);
   tc::cli::add_bench_command(app, ctx);
+  tc::cli::add_render_command(app, ctx);
 #ifdef TC_WITH_SERVICE
   tc::cli::add_record_command(app, ctx);
   tc::cli::add_replay_command(app, ctx);

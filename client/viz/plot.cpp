@@ -192,13 +192,27 @@ Image plot_lines(std::span<const double> x, std::span<const Series> series,
     detail::draw_text_vertical(img, 6, (py0 + py1) / 2 - tw / 2, options.y_label, kText);
   }
 
-  // Legend, top-left inside the plot (stacked: listed top band first).
+  // Legend in the plot corner where it hides the fewest data pixels (ties: top-left,
+  // top-right, bottom-left, bottom-right); stacked: listed top band first.
   if (!series.empty()) {
     int lw = 0;
     for (const Series& s : series) lw = std::max(lw, text_size(s.name)[0]);
     const int row = ch + 4;
     const int box_w = lw + 40, box_h = static_cast<int>(series.size()) * row + 10;
-    const int bx = px0 + 12, by = py0 + 10;
+    int bx = px0 + 12, by = py0 + 10;
+    long best = -1;
+    for (const auto& [cx, cy] : {std::pair{px0 + 12, py0 + 10},
+                                 {px1 - 12 - box_w, py0 + 10},
+                                 {px0 + 12, py1 - 10 - box_h},
+                                 {px1 - 12 - box_w, py1 - 10 - box_h}}) {
+      long hidden = 0;
+      for (int yy = std::max(cy, 0); yy < std::min(cy + box_h, img.height); ++yy)
+        for (int xx = std::max(cx, 0); xx < std::min(cx + box_w, img.width); ++xx) {
+          const Rgb p = img.pixel(xx, yy);
+          hidden += p != kWhite && p != kGrid;
+        }
+      if (best < 0 || hidden < best) best = hidden, bx = cx, by = cy;
+    }
     detail::fill_rect(img, bx, by, box_w, box_h, kWhite);
     detail::draw_rect_outline(img, bx, by, box_w, box_h, {180, 180, 180});
     for (std::size_t k = 0; k < series.size(); ++k) {

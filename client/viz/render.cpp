@@ -2,6 +2,7 @@
 // shading, wireframe overlay, supersampling, colour bar.
 #include "render.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -60,30 +61,6 @@ View make_view(const Camera& cam, int w, int h) {
   return v;
 }
 
-/// A vertex in camera space with its attributes.
-struct CamVertex {
-  Eigen::Vector3d p;  // camera space: x right, y up, z forward (depth)
-  Eigen::Vector3d n;  // shading normal, camera space
-  double t = 0;       // colour-map coordinate (NaN allowed)
-};
-
-CamVertex lerp(const CamVertex& a, const CamVertex& b, double s) {
-  return {a.p + s * (b.p - a.p), a.n + s * (b.n - a.n), a.t + s * (b.t - a.t)};
-}
-
-/// Clips a triangle against z >= znear; writes 0, 3 or 4 vertices (a convex polygon).
-int clip_near(const CamVertex (&in)[3], double znear, CamVertex (&out)[4]) {
-  int k = 0;
-  for (int i = 0; i < 3; ++i) {
-    const CamVertex& a = in[i];
-    const CamVertex& b = in[(i + 1) % 3];
-    const bool ain = a.p.z() >= znear, bin = b.p.z() >= znear;
-    if (ain) out[k++] = a;
-    if (ain != bin) out[k++] = lerp(a, b, (znear - a.p.z()) / (b.p.z() - a.p.z()));
-  }
-  return k;
-}
-
 /// Float RGB frame buffer with a depth buffer (1/z, larger is nearer).
 struct Frame {
   int w = 0, h = 0;
@@ -116,10 +93,17 @@ struct ColourMap {
     if (!(hi > lo)) return 0.5;
     return std::clamp((s - lo) / (hi - lo), 0.0, 1.0);
   }
-  Eigen::Vector3f colour(double t) const {
+  std::array<Eigen::Vector3f, 256> lut;  // 256 steps of the map, 0..1 RGB
+  void build_lut() {
+    for (int i = 0; i < 256; ++i) {
+      const auto c = diverging ? blue_white_red(i / 255.0) : viridis(i / 255.0);
+      lut[static_cast<std::size_t>(i)] = {c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f};
+    }
+  }
+  Eigen::Vector3f colour(float t) const {
     if (!std::isfinite(t)) return {kNanGrey, kNanGrey, kNanGrey};
-    const auto c = diverging ? blue_white_red(t) : viridis(t);
-    return {c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f};
+    const int i = static_cast<int>(std::clamp(t, 0.0f, 1.0f) * 255.0f + 0.5f);
+    return lut[static_cast<std::size_t>(i)];
   }
 };
 
@@ -139,28 +123,47 @@ ColourMap colour_map_of(const Surface& s) {
   }
   m.lo = lo;
   m.hi = hi;
+  m.build_lut();
   return m;
 }
 
-/// Smooth per-node normals (area-weighted, world space) of one surface; zero where a
-/// node has no valid triangle.
-std::vector<Eigen::Vector3d> node_normals(const Surface& s, const std::vector<char>& valid) {
-  const auto& P = *s.positions;
-  std::vector<Eigen::Vector3d> n(static_cast<std::size_t>(P.cols()), Eigen::Vector3d::Zero());
-  for (std::size_t i = 0; i < s.triangles.size(); ++i) {
-    if (!valid[i]) continue;
-    const auto& t = s.triangles[i];
-    const Eigen::Vector3d fn = (P.col(t[1]) - P.col(t[0])).cross(P.col(t[2]) - P.col(t[0]));
-    for (const auto v : t) n[static_cast<std::size_t>(v)] += fn;
+/// Shading normals per triangle corner (world space, unit): the area-weighted mean of
+/// the normals of the triangles around the corner's node that turn less than the crease
+/// angle from this triangle (smooth torus, sharp box edges).
+std::vector<std::array<Eigen::Vector3f, 3>> corner_normals(
+    const Surface& s, const std::vector<std::uint32_t>& tris,
+    const std::vector<Eigen::Vector3d>& area_n) {
+  const auto n_nodes = static_cast<std::size_t>(s.positions->cols());
+  // Node -> valid triangles (CSR, triangle order).
+  std::vector<std::uint32_t> offsets(n_nodes + 1, 0);
+  for (const std::uint32_t i : tris)
+    for (const auto v : s.triangles[i]) ++offsets[static_cast<std::size_t>(v) + 1];
+  for (std::size_t i = 0; i < n_nodes; ++i) offsets[i + 1] += offsets[i];
+  std::vector<std::uint32_t> adj(offsets.back());
+  std::vector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  for (const std::uint32_t i : tris)
+    for (const auto v : s.triangles[i]) adj[fill[static_cast<std::size_t>(v)]++] = i;
+  std::vector<std::array<Eigen::Vector3f, 3>> out(s.triangles.size());
+  for (const std::uint32_t i : tris) {
+    const Eigen::Vector3d fi = area_n[i].normalized();
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(s.triangles[i][static_cast<std::size_t>(k)]);
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (std::uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
+        const Eigen::Vector3d& nj = area_n[adj[a]];
+        if (nj.dot(fi) >= kCreaseCos * nj.norm()) sum += nj;
+      }
+      const double len = sum.norm();
+      out[i][static_cast<std::size_t>(k)] =
+          (len > 0 && std::isfinite(len) ? Eigen::Vector3d(sum / len) : fi).cast<float>();
+    }
   }
-  for (auto& v : n) {
-    const double len = v.norm();
-    v = len > 0 && std::isfinite(len) ? Eigen::Vector3d(v / len) : Eigen::Vector3d::Zero();
-  }
-  return n;
+  return out;
 }
 
 struct RasterParams {
+  Eigen::Vector3f light{0, 0, -1};  // toward the light, camera space, unit
+  Eigen::Vector3f half{0, 0, -1};   // Blinn half vector of light and view, unit
   const ColourMap* map = nullptr;
   Eigen::Vector3f base;
   float opacity = 1;
@@ -168,9 +171,36 @@ struct RasterParams {
   double edge_half_width = 1;  // in supersampled pixels
 };
 
-/// Rasterizes one screen-space triangle (already near-clipped) into the frame.
+/// A vertex ready for rasterization: camera-space position, camera-space normal, t.
+struct CamVertex {
+  Eigen::Vector3d p;  // x right, y up, z forward (depth)
+  Eigen::Vector3d n;
+  double t = 0;  // colour-map coordinate (NaN allowed)
+};
+
+CamVertex lerp(const CamVertex& a, const CamVertex& b, double s) {
+  return {a.p + s * (b.p - a.p), a.n + s * (b.n - a.n), a.t + s * (b.t - a.t)};
+}
+
+/// Clips a triangle against z >= znear; writes 0, 3 or 4 vertices (a convex polygon).
+int clip_near(const CamVertex (&in)[3], double znear, CamVertex (&out)[4]) {
+  int k = 0;
+  for (int i = 0; i < 3; ++i) {
+    const CamVertex& a = in[i];
+    const CamVertex& b = in[(i + 1) % 3];
+    const bool ain = a.p.z() >= znear, bin = b.p.z() >= znear;
+    if (ain) out[k++] = a;
+    if (ain != bin) out[k++] = lerp(a, b, (znear - a.p.z()) / (b.p.z() - a.p.z()));
+  }
+  return k;
+}
+
+/// Rasterizes one triangle (already near-clipped) into the frame. `back`: the eye sees
+/// the triangle's back (inside) side, whose normal is flipped for shading. The light is
+/// a headlight along the view axis: n.l = -n_z in camera space.
 void raster_triangle(Frame& fb, const View& view, const CamVertex& a, const CamVertex& b,
-                     const CamVertex& c, const RasterParams& rp, const bool (&edge_real)[3]) {
+                     const CamVertex& c, const RasterParams& rp, bool back,
+                     const bool (&edge_real)[3]) {
   const CamVertex* v[3] = {&a, &b, &c};
   double sx[3], sy[3], iz[3];
   for (int i = 0; i < 3; ++i) {
@@ -188,73 +218,94 @@ void raster_triangle(Frame& fb, const View& view, const CamVertex& a, const CamV
   const int y0 = std::max(0, static_cast<int>(std::floor(std::max(ymin, -1.0))));
   const int y1 = std::min(fb.h - 1, static_cast<int>(std::ceil(std::min(ymax, fb.h + 1.0))));
   if (x0 > x1 || y0 > y1) return;
+  // Barycentric weights as affine functions of the pixel centre: w_i = ex_i x + ey_i y + e0_i.
   const double inv_area = 1.0 / area;
-  // Edge lengths in (supersampled) pixels, for the wireframe distance.
-  double elen[3];
+  double ex[3], ey[3], e0[3];
   for (int i = 0; i < 3; ++i) {
     const int j = (i + 1) % 3, k = (i + 2) % 3;
-    elen[i] = std::hypot(sx[k] - sx[j], sy[k] - sy[j]);  // edge opposite vertex i
+    ex[i] = (sy[j] - sy[k]) * inv_area;
+    ey[i] = (sx[k] - sx[j]) * inv_area;
+    e0[i] = (sx[j] * sy[k] - sx[k] * sy[j]) * inv_area;
   }
-  const double abs_area = std::abs(area);
-  // Attributes divided by z for perspective-correct interpolation.
-  Eigen::Vector3d nz[3];
-  double tz[3];
+  // Wireframe: screen distance to edge i is w_i * |area| / |edge_i|.
+  double edge_scale[3];
   for (int i = 0; i < 3; ++i) {
-    nz[i] = v[i]->n * iz[i];
-    tz[i] = v[i]->t * iz[i];
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    const double len = std::hypot(sx[k] - sx[j], sy[k] - sy[j]);
+    edge_scale[i] = edge_real[i] && len > 0 ? std::abs(area) / len : -1.0;
   }
-  const Eigen::Vector3d face_n =
-      (v[1]->p - v[0]->p).cross(v[2]->p - v[0]->p).normalized();  // camera space
+  // Attributes divided by z (perspective-correct interpolation), in float.
+  Eigen::Vector3f nz[3];
+  float tz[3];
+  for (int i = 0; i < 3; ++i) {
+    nz[i] = (v[i]->n * iz[i]).cast<float>();
+    tz[i] = static_cast<float>(v[i]->t * iz[i]);
+  }
+  // Back faces are shaded with the flipped normal.
+  const float flip = back ? -1.0f : 1.0f;
+  const double reach = rp.edge_half_width + 1.0;
   for (int y = y0; y <= y1; ++y) {
     const double py = y + 0.5;
-    for (int x = x0; x <= x1; ++x) {
+    // The row's span where every w_i >= 0 (pixel centres x + 0.5); the test inside the
+    // loop stays, for rounding at the span's ends.
+    int xl = x0, xr = x1;
+    for (int i = 0; i < 3 && xl <= xr; ++i) {
+      const double c0 = ey[i] * py + e0[i];  // w_i = ex_i * px + c0
+      if (ex[i] > 0) {
+        xl = std::max(xl, static_cast<int>(std::max(std::ceil(-c0 / ex[i] - 0.5) - 1, -1.0)));
+      } else if (ex[i] < 0) {
+        xr = std::min(xr, static_cast<int>(std::min(std::floor(-c0 / ex[i] - 0.5) + 1,
+                                                    static_cast<double>(fb.w))));
+      } else if (c0 < 0) {
+        xr = xl - 1;
+      }
+    }
+    float* dst_row = fb.rgb.data() + static_cast<std::size_t>(y) * fb.w * 3;
+    float* z_row = fb.inv_z.data() + static_cast<std::size_t>(y) * fb.w;
+    for (int x = xl; x <= xr; ++x) {
       const double px = x + 0.5;
-      double w0 = ((sx[1] - px) * (sy[2] - py) - (sx[2] - px) * (sy[1] - py)) * inv_area;
-      double w1 = ((sx[2] - px) * (sy[0] - py) - (sx[0] - px) * (sy[2] - py)) * inv_area;
-      double w2 = 1.0 - w0 - w1;
+      const double w0 = ex[0] * px + ey[0] * py + e0[0];
+      const double w1 = ex[1] * px + ey[1] * py + e0[1];
+      const double w2 = ex[2] * px + ey[2] * py + e0[2];
       if (w0 < 0 || w1 < 0 || w2 < 0) continue;
-      const double inv_zp = w0 * iz[0] + w1 * iz[1] + w2 * iz[2];
-      const std::size_t idx = static_cast<std::size_t>(y) * fb.w + x;
-      if (!(inv_zp > fb.inv_z[idx])) continue;
-      const double zp = 1.0 / inv_zp;
-      // Shading normal, flipped toward the viewer (two-sided).
-      Eigen::Vector3d n = (w0 * nz[0] + w1 * nz[1] + w2 * nz[2]) * zp;
-      const double nlen = n.norm();
-      n = nlen > 1e-12 ? Eigen::Vector3d(n / nlen) : face_n;
-      // View ray at this pixel (camera space), from the eye.
-      const Eigen::Vector3d ray =
-          Eigen::Vector3d((px - view.cx) / view.focal, -(py - view.cy) / view.focal, 1.0)
-              .normalized();
-      double ndl = -n.dot(ray);
-      if (face_n.dot(ray) > 0) ndl = -ndl;  // back face: use the flipped normal
-      ndl = std::clamp(ndl, 0.0, 1.0);
+      const float inv_zp = static_cast<float>(w0 * iz[0] + w1 * iz[1] + w2 * iz[2]);
+      if (!(inv_zp > z_row[x])) continue;
+      const float zp = 1.0f / inv_zp;
+      const float f0 = static_cast<float>(w0) * zp, f1 = static_cast<float>(w1) * zp,
+                  f2 = static_cast<float>(w2) * zp;
+      const Eigen::Vector3f n = f0 * nz[0] + f1 * nz[1] + f2 * nz[2];
+      const float nlen = n.norm();
+      const float inv_len = nlen > 1e-20f ? flip / nlen : 0.0f;
+      const float d = std::clamp(n.dot(rp.light) * inv_len, 0.0f, 1.0f);
+      const float h = std::clamp(n.dot(rp.half) * inv_len, 0.0f, 1.0f);
       Eigen::Vector3f albedo = rp.base;
-      if (rp.map->active) albedo = rp.map->colour((w0 * tz[0] + w1 * tz[1] + w2 * tz[2]) * zp);
-      const float d = static_cast<float>(ndl);
-      float spec = 1.0f;
-      for (int i = 0; i < kShininess; ++i) spec *= d;
+      if (rp.map->active) albedo = rp.map->colour(f0 * tz[0] + f1 * tz[1] + f2 * tz[2]);
+      float spec = h * h;  // h^32 by squaring
+      spec *= spec;
+      spec *= spec;
+      spec *= spec;
+      spec *= spec;
       Eigen::Vector3f col =
           albedo * (kAmbient + kDiffuse * d) + Eigen::Vector3f::Constant(kSpecular * spec);
       if (rp.wireframe) {
-        // Screen distance to the nearest real edge: w_i * 2|area| / |edge_i|.
         double dist = std::numeric_limits<double>::infinity();
-        const double w[3] = {w0, w1, w2};
-        for (int i = 0; i < 3; ++i)
-          if (edge_real[i] && elen[i] > 0) dist = std::min(dist, w[i] * abs_area / elen[i]);
-        if (dist < rp.edge_half_width + 1.0) {
-          const double cover = std::clamp(rp.edge_half_width + 1.0 - dist, 0.0, 1.0);
-          col *= 1.0f - static_cast<float>(cover) * (1.0f - kEdgeDarken);
+        if (edge_scale[0] > 0) dist = std::min(dist, w0 * edge_scale[0]);
+        if (edge_scale[1] > 0) dist = std::min(dist, w1 * edge_scale[1]);
+        if (edge_scale[2] > 0) dist = std::min(dist, w2 * edge_scale[2]);
+        if (dist < reach) {
+          const float cover = static_cast<float>(std::min(reach - dist, 1.0));
+          col *= 1.0f - cover * (1.0f - kEdgeDarken);
         }
       }
       col = col.cwiseMin(1.0f).cwiseMax(0.0f);
-      float* dst = fb.rgb.data() + idx * 3;
+      float* dst = dst_row + 3 * x;
       if (rp.opacity >= 1.0f) {
-        fb.inv_z[idx] = static_cast<float>(inv_zp);
+        z_row[x] = inv_zp;
         dst[0] = col.x();
         dst[1] = col.y();
         dst[2] = col.z();
       } else {
-        const float o = std::max(rp.opacity, 0.0f);
+        const float o = rp.opacity;
         for (int k = 0; k < 3; ++k) dst[k] = o * col[k] + (1 - o) * dst[k];
       }
     }
@@ -265,62 +316,77 @@ void draw_surface(Frame& fb, const View& view, const Surface& s, const RasterPar
   if (s.positions == nullptr || s.triangles.empty()) return;
   const auto& P = *s.positions;
   const auto n_nodes = static_cast<std::int64_t>(P.cols());
-  std::vector<char> valid(s.triangles.size(), 0);
-  for (std::size_t i = 0; i < s.triangles.size(); ++i) {
-    const auto& t = s.triangles[i];
-    bool ok = true;
-    for (const auto v : t) ok = ok && v >= 0 && v < n_nodes && P.col(v).allFinite();
-    if (ok) {
-      const Eigen::Vector3d fn = (P.col(t[1]) - P.col(t[0])).cross(P.col(t[2]) - P.col(t[0]));
-      const double len = fn.norm();
-      ok = len > 0 && std::isfinite(len);
-    }
-    valid[i] = ok ? 1 : 0;
-  }
-  const std::vector<Eigen::Vector3d> smooth = node_normals(s, valid);
-  const ColourMap map = colour_map_of(s);
   RasterParams rp = rp_in;
-  rp.map = &map;
   rp.base = s.base_color.allFinite() ? Eigen::Vector3f(s.base_color.cwiseMax(0.0f).cwiseMin(1.0f))
                                      : Eigen::Vector3f(0.8f, 0.8f, 0.8f);
   rp.opacity = std::isfinite(s.opacity) ? std::clamp(s.opacity, 0.0f, 1.0f) : 1.0f;
   rp.wireframe = s.wireframe;
-  const bool scalars = s.scalar.size() == static_cast<std::size_t>(n_nodes);
+  const bool transparent = rp.opacity < 1.0f;
+
+  // Valid triangles (indices in range, finite, non-zero area) with their area normals and
+  // their nearest and farthest depth.
+  std::vector<Eigen::Vector3d> area_n(s.triangles.size(), Eigen::Vector3d::Zero());
+  std::vector<std::uint32_t> tris;
+  std::vector<std::pair<double, std::uint32_t>> order;
   for (std::size_t i = 0; i < s.triangles.size(); ++i) {
-    if (!valid[i]) continue;
     const auto& t = s.triangles[i];
-    const Eigen::Vector3d fn =
-        (P.col(t[1]) - P.col(t[0])).cross(P.col(t[2]) - P.col(t[0])).normalized();
+    bool ok = true;
+    for (const auto v : t) ok = ok && v >= 0 && v < n_nodes && P.col(v).allFinite();
+    if (!ok) continue;
+    const Eigen::Vector3d fn = (P.col(t[1]) - P.col(t[0])).cross(P.col(t[2]) - P.col(t[0]));
+    const double len = fn.norm();
+    if (!(len > 0) || !std::isfinite(len)) continue;
+    area_n[i] = fn;
+    tris.push_back(static_cast<std::uint32_t>(i));
+    double zmin = std::numeric_limits<double>::infinity(), zmax = -zmin;
+    for (const auto v : t) {
+      const double z = (P.col(v) - view.eye).dot(view.forward);
+      zmin = std::min(zmin, z);
+      zmax = std::max(zmax, z);
+    }
+    // Opaque: front to back (hidden samples then fail the depth test before shading);
+    // transparent: back to front. Ties keep the triangle order: deterministic.
+    order.emplace_back(transparent ? -zmax : zmin, static_cast<std::uint32_t>(i));
+  }
+  std::sort(order.begin(), order.end());
+  const auto normals = corner_normals(s, tris, area_n);
+  const ColourMap map = colour_map_of(s);
+  rp.map = &map;
+  const bool scalars = s.scalar.size() == static_cast<std::size_t>(n_nodes);
+  for (const auto& [key, i] : order) {
+    const auto& t = s.triangles[i];
+    // Transparent surfaces show their front faces only (else a closed surface would be
+    // blended twice and look denser than its opacity).
+    const bool back = area_n[i].dot(P.col(t[0]) - view.eye) > 0;
+    if (transparent && back) continue;
     CamVertex cv[3];
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3d d = P.col(t[k]) - view.eye;
       cv[k].p = Eigen::Vector3d(d.dot(view.right), d.dot(view.up), d.dot(view.forward));
-      const Eigen::Vector3d& sn = smooth[static_cast<std::size_t>(t[k])];
-      const Eigen::Vector3d wn = sn.dot(fn) >= kCreaseCos ? sn : fn;
+      const Eigen::Vector3d wn = normals[i][static_cast<std::size_t>(k)].cast<double>();
       cv[k].n = Eigen::Vector3d(wn.dot(view.right), wn.dot(view.up), wn.dot(view.forward));
-      cv[k].t = scalars ? map.to_t(s.scalar[static_cast<std::size_t>(t[k])])
-                        : std::numeric_limits<double>::quiet_NaN();
+      cv[k].t = !map.active ? 0.0
+                : scalars   ? map.to_t(s.scalar[static_cast<std::size_t>(t[k])])
+                            : std::numeric_limits<double>::quiet_NaN();
     }
-    if (!map.active)
-      for (auto& c : cv) c.t = 0;
     CamVertex poly[4];
     const int k = clip_near(cv, view.znear, poly);
     if (k < 3) continue;
-    // Edges of the clipped polygon that lie on the original triangle's edges are drawn
-    // in wireframe; the cut along the near plane is not.
-    auto on_original = [&](const CamVertex& p, const CamVertex& q) {
-      return !(std::abs(p.p.z() - view.znear) < 1e-12 * std::max(1.0, view.znear) &&
-               std::abs(q.p.z() - view.znear) < 1e-12 * std::max(1.0, view.znear));
-    };
     if (k == 3) {
       const bool e[3] = {true, true, true};
-      raster_triangle(fb, view, poly[0], poly[1], poly[2], rp, e);
+      raster_triangle(fb, view, poly[0], poly[1], poly[2], rp, back, e);
     } else {
-      // Fan (0,1,2) and (0,2,3); the diagonal 0-2 is not an edge.
-      const bool e1[3] = {on_original(poly[1], poly[2]), false, on_original(poly[0], poly[1])};
-      const bool e2[3] = {on_original(poly[2], poly[3]), on_original(poly[3], poly[0]), false};
-      raster_triangle(fb, view, poly[0], poly[1], poly[2], rp, e1);
-      raster_triangle(fb, view, poly[0], poly[2], poly[3], rp, e2);
+      // Fan (0,1,2) and (0,2,3); the diagonal 0-2 and the cut along the near plane are
+      // not edges of the original triangle.
+      auto on_near = [&](const CamVertex& p) {
+        return std::abs(p.p.z() - view.znear) <= 1e-12 * std::max(1.0, view.znear);
+      };
+      const bool e1[3] = {!(on_near(poly[1]) && on_near(poly[2])), false,
+                          !(on_near(poly[0]) && on_near(poly[1]))};
+      const bool e2[3] = {!(on_near(poly[2]) && on_near(poly[3])),
+                          !(on_near(poly[3]) && on_near(poly[0])), false};
+      raster_triangle(fb, view, poly[0], poly[1], poly[2], rp, back, e1);
+      raster_triangle(fb, view, poly[0], poly[2], poly[3], rp, back, e2);
     }
   }
 }
@@ -331,29 +397,42 @@ std::string format_value(double v) {
   return buf;
 }
 
+/// Layout of the colour bar: bar and label sizes, and the panel's total width.
+struct BarLayout {
+  int bar_w = 0, bar_h = 0, label_w = 0, panel_w = 0;
+};
+
+BarLayout bar_layout(int width, int height, const ColourMap& map, const std::string& name) {
+  BarLayout b;
+  b.bar_w = std::max(10, width / 60);
+  b.bar_h = std::max(40, height / 2);
+  b.label_w = std::max({text_size(format_value(map.hi)).at(0),
+                        text_size(format_value(map.lo)).at(0), text_size("0").at(0)});
+  b.panel_w = std::max(b.bar_w + b.label_w + 16, text_size(name).at(0) + 12) + 18;
+  return b;
+}
+
 void draw_colour_bar(Image& img, const ColourMap& map, const std::string& name) {
-  const int bar_w = std::max(10, img.width / 60);
-  const int bar_h = std::max(40, img.height / 2);
-  const int label_w = text_size("-0.0000e-00").at(0);
-  const int x0 = img.width - bar_w - label_w - 24;
-  const int y0 = (img.height - bar_h) / 2;
-  if (x0 < 0 || y0 < 0) return;
-  for (int y = 0; y < bar_h; ++y) {
-    const double t = 1.0 - static_cast<double>(y) / std::max(1, bar_h - 1);
+  const BarLayout b = bar_layout(img.width, img.height, map, name);
+  const int px = img.width - b.panel_w;  // panel's left edge
+  const int x0 = px + 10;                // bar's left edge
+  const int y0 = (img.height - b.bar_h) / 2;
+  const int th = text_size("0").at(1);
+  if (px < 0 || y0 - 2 * th - 10 < 0) return;
+  // A light panel behind the bar and its labels keeps them readable over the scene.
+  for (int y = y0 - 2 * th - 10; y < y0 + b.bar_h + th + 4; ++y)
+    for (int x = px; x < img.width - 8; ++x) detail::blend_pixel(img, x, y, {255, 255, 255}, 0.6);
+  for (int y = 0; y < b.bar_h; ++y) {
+    const double t = 1.0 - static_cast<double>(y) / std::max(1, b.bar_h - 1);
     const auto c = map.diverging ? blue_white_red(t) : viridis(t);
-    for (int x = 0; x < bar_w; ++x) detail::put_pixel(img, x0 + x, y0 + y, c);
+    for (int x = 0; x < b.bar_w; ++x) detail::put_pixel(img, x0 + x, y0 + y, c);
   }
   const std::array<std::uint8_t, 3> black{30, 30, 30};
-  detail::draw_rect_outline(img, x0 - 1, y0 - 1, bar_w + 2, bar_h + 2, black);
-  const int th = text_size("0").at(1);
-  draw_text(img, x0 + bar_w + 6, y0 - th / 2, format_value(map.hi), black);
-  draw_text(img, x0 + bar_w + 6, y0 + bar_h - th / 2, format_value(map.lo), black);
-  if (map.diverging) draw_text(img, x0 + bar_w + 6, y0 + bar_h / 2 - th / 2, "0", black);
-  if (!name.empty()) {
-    const int nw = text_size(name).at(0);
-    draw_text(img, std::max(0, std::min(x0 + bar_w / 2 - nw / 2, img.width - nw - 4)),
-              y0 - 2 * th - 4, name, black);
-  }
+  detail::draw_rect_outline(img, x0 - 1, y0 - 1, b.bar_w + 2, b.bar_h + 2, black);
+  draw_text(img, x0 + b.bar_w + 6, y0 - th / 2, format_value(map.hi), black);
+  draw_text(img, x0 + b.bar_w + 6, y0 + b.bar_h - th / 2, format_value(map.lo), black);
+  if (map.diverging) draw_text(img, x0 + b.bar_w + 6, y0 + b.bar_h / 2 - th / 2, "0", black);
+  if (!name.empty()) draw_text(img, x0, y0 - 2 * th - 4, name, black);
 }
 
 }  // namespace
@@ -405,15 +484,40 @@ Image render(std::span<const Surface> surfaces, const Camera& camera,
   const int width = std::clamp(camera.width, 1, 16384);
   const int height = std::clamp(camera.height, 1, 16384);
   const int ss = std::clamp(options.supersample, 1, 4);
-  Frame fb;
+  // The supersampled buffers are kept per thread between calls (no page faults per
+  // frame); every sample is rewritten, so the output does not depend on the history.
+  thread_local Frame fb;
   fb.w = width * ss;
   fb.h = height * ss;
-  fb.rgb.assign(static_cast<std::size_t>(fb.w) * fb.h * 3, 0.0f);
+  fb.rgb.resize(static_cast<std::size_t>(fb.w) * fb.h * 3);
   fb.inv_z.assign(static_cast<std::size_t>(fb.w) * fb.h, 0.0f);
   fill_background(fb, options.background_gradient);
-  const View view = make_view(camera, fb.w, fb.h);
+  View view = make_view(camera, fb.w, fb.h);
+  // With a colour bar, the scene is drawn in the part of the image left of its panel.
+  const Surface* bar_surface = nullptr;
+  if (options.colour_bar)
+    for (const Surface& s : surfaces)
+      if (!s.scalar.empty()) {
+        bar_surface = &s;
+        break;
+      }
+  if (bar_surface != nullptr) {
+    const int panel =
+        bar_layout(width, height, colour_map_of(*bar_surface), bar_surface->scalar_name).panel_w;
+    if (panel < width / 2) {
+      const double keep = static_cast<double>(width - panel) / width;
+      view.cx *= keep;
+      view.focal *= keep;
+    }
+  }
   RasterParams rp;
   rp.edge_half_width = kEdgeHalfWidth * ss;
+  Eigen::Vector3d light = options.light;
+  if (!light.allFinite() || light.norm() == 0) light = Eigen::Vector3d(0, 0, -1);
+  light.normalize();
+  rp.light = light.cast<float>();
+  rp.half = (light + Eigen::Vector3d(0, 0, -1)).normalized().cast<float>();
+  if (!rp.half.allFinite()) rp.half = Eigen::Vector3f(0, 0, -1);
   // Opaque surfaces first, then the transparent ones in the given order.
   for (int pass = 0; pass < 2; ++pass)
     for (const Surface& s : surfaces) {
@@ -426,23 +530,23 @@ Image render(std::span<const Surface> surfaces, const Camera& camera,
   img.height = height;
   img.rgb.resize(static_cast<std::size_t>(width) * height * 3);
   const float norm = 255.0f / static_cast<float>(ss * ss);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x)
-      for (int k = 0; k < 3; ++k) {
-        float sum = 0;
-        for (int j = 0; j < ss; ++j)
-          for (int i = 0; i < ss; ++i)
-            sum += fb.rgb[(static_cast<std::size_t>(y * ss + j) * fb.w + (x * ss + i)) * 3 + k];
-        img.rgb[(static_cast<std::size_t>(y) * width + x) * 3 + k] =
-            static_cast<std::uint8_t>(std::clamp(std::lround(sum * norm), 0L, 255L));
-      }
-  if (options.colour_bar)
-    for (const Surface& s : surfaces)
-      if (!s.scalar.empty()) {
-        draw_colour_bar(img, colour_map_of(s), s.scalar_name);
-        break;
-      }
-  if (!options.title.empty()) draw_text(img, 12, 10, options.title, {20, 20, 20}, 2);
+  std::vector<float> acc(static_cast<std::size_t>(width) * 3);
+  for (int y = 0; y < height; ++y) {
+    std::fill(acc.begin(), acc.end(), 0.0f);
+    for (int j = 0; j < ss; ++j) {
+      const float* src = fb.rgb.data() + static_cast<std::size_t>(y * ss + j) * fb.w * 3;
+      for (int x = 0; x < width; ++x)
+        for (int i = 0; i < ss; ++i)
+          for (int k = 0; k < 3; ++k) acc[3 * x + k] += src[3 * (x * ss + i) + k];
+    }
+    std::uint8_t* dst = img.rgb.data() + static_cast<std::size_t>(y) * width * 3;
+    for (std::size_t q = 0; q < acc.size(); ++q)
+      dst[q] = static_cast<std::uint8_t>(std::clamp(acc[q] * norm + 0.5f, 0.0f, 255.0f));
+  }
+  if (bar_surface != nullptr)
+    draw_colour_bar(img, colour_map_of(*bar_surface), bar_surface->scalar_name);
+  if (!options.title.empty())
+    draw_text(img, 12, 10, options.title, {20, 20, 20}, width >= 600 ? 2 : 1);
   return img;
 }
 

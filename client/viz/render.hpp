@@ -3,7 +3,8 @@
 // plots. Used by `tetcollide render` and by the demo to write frames and timing plots.
 //
 // Rendering model: perspective pinhole camera, z-buffer, per-pixel Lambert shading with
-// a headlight (light at the eye) plus ambient and a little specular, two-sided faces
+// a headlight (a directional light fixed to the camera) plus ambient and a little
+// Blinn-Phong specular, two-sided faces
 // (back faces are shaded with the flipped normal, so open or inverted surfaces still
 // look solid), 2x2 supersampling then a box filter. Scalars use a perceptual colour map
 // (viridis, or blue-white-red when the range straddles 0) and add a colour bar with
@@ -75,6 +76,11 @@ struct RenderOptions {
   bool background_gradient = true;
   int supersample = 2;  ///< samples per pixel per axis (1..4)
   std::string title;    ///< drawn top-left when non-empty
+  /// Direction toward the light in camera coordinates (x right, y up, z from the eye
+  /// into the scene). The light moves with the camera. Default: a headlight raised up
+  /// and a little to the right, so that top faces read brighter than front ones; {0, 0, -1} is a
+  /// pure headlight (a face seen straight on gets full diffuse light).
+  Eigen::Vector3d light{0.15, 0.6, -1.0};
 };
 
 /// A camera looking along `view_dir` (from the eye toward the scene) that frames the

@@ -3,7 +3,9 @@
 #   cmake -DCOMMAND=<program> [-DARGS=a|b|c] -DEXPECT_EXIT=<n>
 #         [-DSTDOUT_REGEX=<re>] [-DSTDERR_REGEX=<re>] [-DSTDERR_EMPTY=1]
 #         [-DJSON_INTS=key=value,key=value]   (stdout is one JSON object)
-#         [-DOUTPUT_FILE=<path> [-DOUTPUT_REGEX=<re>]]  (file the command must write)
+#         [-DOUTPUT_FILE=<path> [-DOUTPUT_REGEX=<re>] [-DOUTPUT_HEX_REGEX=<re>]]
+#                                        (file the command must write; the hex regex is
+#                                         matched against its bytes in lower-case hex)
 #         -P run_cli.cmake
 #
 # Arguments are separated by '|' so that paths and regexes keep their ';'.
@@ -69,6 +71,13 @@ if(DEFINED OUTPUT_FILE)
     file(READ "${OUTPUT_FILE}" content)
     if(NOT content MATCHES "${OUTPUT_REGEX}")
       message(FATAL_ERROR "${OUTPUT_FILE} does not match '${OUTPUT_REGEX}'\n${report}")
+    endif()
+  endif()
+  if(DEFINED OUTPUT_HEX_REGEX)
+    file(READ "${OUTPUT_FILE}" hex HEX)
+    if(NOT hex MATCHES "${OUTPUT_HEX_REGEX}")
+      string(SUBSTRING "${hex}" 0 80 head)
+      message(FATAL_ERROR "${OUTPUT_FILE} (hex ${head}...) does not match '${OUTPUT_HEX_REGEX}'\n${report}")
     endif()
   endif()
 endif()
