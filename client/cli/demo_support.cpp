@@ -29,8 +29,8 @@ std::vector<std::filesystem::path> data_roots() {
   std::vector<std::filesystem::path> roots{std::filesystem::current_path()};
   if (std::string(TC_SOURCE_DIR).size() > 0) roots.emplace_back(TC_SOURCE_DIR);
   const auto bin = exe_dir();
-  roots.push_back(bin / ".." / "..");                       // <repo>/build/bin
-  roots.push_back(bin / ".." / "share" / "tetcollide");     // <prefix>/bin
+  roots.push_back(bin / ".." / "..");                    // <repo>/build/bin
+  roots.push_back(bin / ".." / "share" / "tetcollide");  // <prefix>/bin
   return roots;
 }
 
@@ -48,8 +48,8 @@ std::filesystem::path find_scene_file(const std::string& scene) {
 
 std::filesystem::path find_cyclonedds_config() {
   for (const auto& root : data_roots())
-    for (const auto& f : {root / "config" / "cyclonedds.xml", root / ".." / ".." / "etc" / "tetcollide" /
-                                                                  "cyclonedds.xml"})
+    for (const auto& f : {root / "config" / "cyclonedds.xml",
+                          root / ".." / ".." / "etc" / "tetcollide" / "cyclonedds.xml"})
       if (std::filesystem::exists(f)) return std::filesystem::weakly_canonical(f);
   if (std::filesystem::exists("/etc/tetcollide/cyclonedds.xml"))
     return "/etc/tetcollide/cyclonedds.xml";
@@ -132,8 +132,9 @@ Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>&
          "  <Collection>\n";
   char line[512];
   for (const auto& e : entries) {
-    std::snprintf(line, sizeof line, "    <DataSet timestep=\"%.6f\" group=\"\" part=\"0\" file=\"%s\"/>\n",
-                  e.time, e.file.c_str());
+    std::snprintf(line, sizeof line,
+                  "    <DataSet timestep=\"%.6f\" group=\"\" part=\"0\" file=\"%s\"/>\n", e.time,
+                  e.file.c_str());
     out << line;
   }
   out << "  </Collection>\n</VTKFile>\n";

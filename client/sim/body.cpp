@@ -43,14 +43,14 @@ Expected<Body> Body::create(TetMesh mesh, const Material& material) {
     const Tet& t = b.rest_.tets[i];
     for (const Index n : t)
       if (n < 0 || n >= b.rest_.num_nodes())
-        return Error{ErrorCode::kInvalidMesh,
-                     "tet " + std::to_string(i) + " refers to node " + std::to_string(n) +
-                         " of " + std::to_string(b.rest_.num_nodes())};
+        return Error{ErrorCode::kInvalidMesh, "tet " + std::to_string(i) + " refers to node " +
+                                                  std::to_string(n) + " of " +
+                                                  std::to_string(b.rest_.num_nodes())};
     const double det = edge_matrix(b.rest_.positions, t).determinant();
     if (!(det > 0.0))
       return Error{ErrorCode::kInvalidMesh,
-                   "tet " + std::to_string(i) + " is degenerate or inverted at rest (6V = " +
-                       std::to_string(det) + ")"};
+                   "tet " + std::to_string(i) +
+                       " is degenerate or inverted at rest (6V = " + std::to_string(det) + ")"};
   }
   b.x_ = b.rest_.positions;
   b.v_ = Eigen::Matrix3Xd::Zero(3, b.x_.cols());
@@ -165,7 +165,8 @@ std::size_t Body::tear(double strain) {
   for (Index n = 0; n < node_count(); ++n) {
     const Index r = remap[static_cast<std::size_t>(n)];
     if (r < 0) continue;
-    if (!rest_.node_ids.empty()) mesh.node_ids.push_back(rest_.node_ids[static_cast<std::size_t>(n)]);
+    if (!rest_.node_ids.empty())
+      mesh.node_ids.push_back(rest_.node_ids[static_cast<std::size_t>(n)]);
     mesh.positions.col(r) = rest_.positions.col(n);
     x.col(r) = x_.col(n);
     v.col(r) = v_.col(n);

@@ -40,7 +40,8 @@ class TetGrid {
       const auto hi = key(b.hi);
       for (auto a = lo[0]; a <= hi[0]; ++a)
         for (auto c = lo[1]; c <= hi[1]; ++c)
-          for (auto d = lo[2]; d <= hi[2]; ++d) cells_[pack({a, c, d})].push_back(static_cast<Index>(i));
+          for (auto d = lo[2]; d <= hi[2]; ++d)
+            cells_[pack({a, c, d})].push_back(static_cast<Index>(i));
     }
   }
   [[nodiscard]] const std::vector<Index>* at(const Eigen::Vector3d& p) const {
@@ -52,7 +53,8 @@ class TetGrid {
   [[nodiscard]] std::array<std::int64_t, 3> key(const Eigen::Vector3d& p) const {
     std::array<std::int64_t, 3> k{};
     for (int i = 0; i < 3; ++i)
-      k[static_cast<std::size_t>(i)] = static_cast<std::int64_t>(std::floor((p[i] - origin_[i]) / cell_));
+      k[static_cast<std::size_t>(i)] =
+          static_cast<std::int64_t>(std::floor((p[i] - origin_[i]) / cell_));
     return k;
   }
   static std::uint64_t pack(const std::array<std::int64_t, 3>& k) {
@@ -107,7 +109,8 @@ std::vector<std::vector<double>> PenetrationProbe::measure(
         for (const Index t : *cands) {
           const Tet& tet = mesh.tets[static_cast<std::size_t>(t)];
           Eigen::Matrix3d m;
-          for (int c = 0; c < 3; ++c) m.col(c) = mesh.positions.col(tet[c + 1]) - mesh.positions.col(tet[0]);
+          for (int c = 0; c < 3; ++c)
+            m.col(c) = mesh.positions.col(tet[c + 1]) - mesh.positions.col(tet[0]);
           const Eigen::Vector3d l = m.partialPivLu().solve(p - mesh.positions.col(tet[0]));
           const double l0 = 1.0 - l.sum();
           constexpr double kTol = -1e-12;

@@ -30,8 +30,7 @@ class Parser {
   [[noreturn]] void fail(const YAML::Node& node, const std::string& message,
                          ErrorCode code = ErrorCode::kInvalidArgument) const {
     std::string at = where_;
-    if (node.IsDefined() && node.Mark().line >= 0)
-      at += ":" + std::to_string(node.Mark().line + 1);
+    if (node.IsDefined() && node.Mark().line >= 0) at += ":" + std::to_string(node.Mark().line + 1);
     throw ParseFailure{code, at + ": " + message};
   }
 
@@ -59,8 +58,8 @@ class Parser {
                 double hi) const {
     const double v = get<double>(map, key, fallback);
     if (!(v >= lo && v <= hi))
-      fail(map[key], "'" + key + "' = " + std::to_string(v) + " is outside [" +
-                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+      fail(map[key], "'" + key + "' = " + std::to_string(v) + " is outside [" + std::to_string(lo) +
+                         ", " + std::to_string(hi) + "]");
     return v;
   }
 

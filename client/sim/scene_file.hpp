@@ -66,7 +66,7 @@ struct SceneSpec {
   int substeps = 8;  ///< elastic substeps per frame
   int frames = 500;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
-  int output_every = 10;         ///< a VTU every this many frames (and the last)
+  int output_every = 10;           ///< a VTU every this many frames (and the last)
   std::vector<int> render_frames;  ///< frames drawn as PNG (clamped to the run)
   int image_width = 640;
   int image_height = 480;

@@ -32,11 +32,11 @@ bool finite_everywhere(const nlohmann::json& j) {
 TEST(DemoTest, TorusOnBoxWritesOutputsAndASaneSummary) {
   const auto dir = make_temp_dir("itest-demo");
   const auto out = dir / "out";
-  const int frames = 160;  // the torus touches the box near frame 100
-  const auto r = run_program({program_from_env("TC_CLI"), "demo", "torus_on_box", "--frames",
-                              std::to_string(frames), "--spawn-daemon", "--domain",
-                              std::to_string(private_domain()), "--out", out.string()},
-                             90s);
+  const int frames = 120;  // the torus touches the box near frame 60
+  const auto r = run_program(
+      {program_from_env("TC_CLI"), "demo", "torus_on_box", "--frames", std::to_string(frames),
+       "--spawn-daemon", "--domain", std::to_string(private_domain()), "--out", out.string()},
+      90s);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   // The human summary names the outputs.
   EXPECT_NE(r.out.find("outputs in"), std::string::npos) << r.out;
@@ -53,7 +53,7 @@ TEST(DemoTest, TorusOnBoxWritesOutputsAndASaneSummary) {
   // The torus reached the box and stayed out of it.
   EXPECT_GT(s["max_contacts"].get<int>(), 0);
   EXPECT_GT(s["service_max_depth_m"].get<double>(), 0.0);
-  EXPECT_LT(s["max_penetration_m"].get<double>(), 0.01);
+  EXPECT_LT(s["max_penetration_m"].get<double>(), 0.015);
   EXPECT_LT(s["energy_drift_rel"].get<double>(), 0.05);
   for (const char* stage : {"round_trip", "broad", "narrow", "depth", "response", "compute"}) {
     const auto& st = s["collision_ms"][stage];
@@ -64,9 +64,9 @@ TEST(DemoTest, TorusOnBoxWritesOutputsAndASaneSummary) {
   // The files.
   EXPECT_TRUE(std::filesystem::exists(out / "torus_on_box.pvd"));
   const int vtus = s["outputs"]["vtu"].get<int>();
-  EXPECT_EQ(vtus, (frames - 1) / 20 + 1 + ((frames - 1) % 20 != 0 ? 1 : 0));
+  EXPECT_EQ(vtus, (frames - 1) / 10 + 1 + ((frames - 1) % 10 != 0 ? 1 : 0));
   EXPECT_TRUE(std::filesystem::exists(out / "frame_0000.vtu"));
-  EXPECT_TRUE(std::filesystem::exists(out / "frame_0159.vtu"));
+  EXPECT_TRUE(std::filesystem::exists(out / "frame_0119.vtu"));
   for (const auto& png : s["outputs"]["png"]) {
     const auto p = out / png.get<std::string>();
     EXPECT_TRUE(std::filesystem::exists(p)) << p;
@@ -94,6 +94,8 @@ TEST(DemoTest, UnknownSceneIsBadInput) {
 }
 
 TEST(DemoTest, RecordingsOfTheDemoScenesReplayBitForBit) {
+  if (!std::filesystem::exists(demo_recordings()))
+    GTEST_SKIP() << "no demo recordings in " << demo_recordings();
   const auto dir = make_temp_dir("itest-demo-replay");
   const std::uint32_t domain = private_domain();
   DaemonProcess daemon(dir, domain, "version: 1\nlog:\n  timing_summary_period_s: 0\n");

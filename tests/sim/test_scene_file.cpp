@@ -35,8 +35,7 @@ objects:
 TEST(SceneFile, CommittedScenesParse) {
   for (const char* name : {"torus_on_box", "ellipsoid_rain", "tissue_tear"}) {
     SCOPED_TRACE(name);
-    const auto s =
-        load_scene_file(kRoot / "config" / "scenes" / (std::string(name) + ".yaml"), {});
+    const auto s = load_scene_file(kRoot / "config" / "scenes" / (std::string(name) + ".yaml"), {});
     ASSERT_TRUE(s) << s.error().message;
     EXPECT_EQ(s->name, name);
     EXPECT_GT(s->frames, 0);
