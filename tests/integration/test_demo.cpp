@@ -80,7 +80,8 @@ TEST(DemoTest, TorusOnBoxWritesOutputsAndASaneSummary) {
   // The daemon was stopped.
   EXPECT_NE(r.err.find("started tetcollided"), std::string::npos) << r.err;
   std::ifstream log(out / "tetcollided.log");
-  std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  std::string text;
+  for (std::string line; std::getline(log, line);) text += line + "\n";
   EXPECT_NE(text.find("tetcollided stopped"), std::string::npos) << text;
   std::filesystem::remove_all(dir);
 }
