@@ -73,6 +73,7 @@ struct Client::Impl {
   dds_entity_t state_writer = 0;
   dds_entity_t forces_reader = 0;
   dds_entity_t status_reader = 0;
+  dds_entity_t stats_reader = 0;
   dds_entity_t waitset = 0;
   dds_entity_t wakeup = 0;
 
@@ -91,6 +92,7 @@ struct Client::Impl {
   std::map<std::pair<std::string, std::uint32_t>, std::int64_t> written;
   std::map<std::string, StatusEvent::State> services;  // alive services
   std::vector<StatusEvent> events;
+  std::vector<FrameStatsEvent> stats;
 
   // The last published frame, kept for re-sending (only when resend_after > 0).
   struct Kept {
@@ -168,6 +170,9 @@ struct Client::Impl {
     if (events.size() > kKeptEvents)
       events.erase(events.begin(),
                    events.begin() + static_cast<std::ptrdiff_t>(events.size() - kKeptEvents));
+    if (stats.size() > kKeptEvents)
+      stats.erase(stats.begin(),
+                  stats.begin() + static_cast<std::ptrdiff_t>(stats.size() - kKeptEvents));
   }
 
   // --- reading DDS (pump_mutex held) ---
@@ -181,6 +186,7 @@ struct Client::Impl {
     std::vector<FrameForces> completed;
     take_forces(completed);
     take_status();
+    take_stats();
     changed.notify_all();
     return completed;
   }
@@ -273,6 +279,49 @@ struct Client::Impl {
         trim();
       }
       check_rc(dds_return_loan(status_reader, samples.data(), n), "dds_return_loan");
+      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
+    }
+  }
+
+  void take_stats() {
+    std::array<void*, kTakeBatch> samples{};
+    std::array<dds_sample_info_t, kTakeBatch> infos{};
+    for (;;) {
+      samples.fill(nullptr);
+      const dds_return_t n =
+          dds_take(stats_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
+      if (n < 0) throw_dds("dds_take(FrameStats)", n);
+      {
+        std::lock_guard lock(mutex);
+        for (dds_return_t i = 0; i < n; ++i) {
+          if (!infos[i].valid_data) continue;
+          const auto* s = static_cast<const tetcollide_FrameStats*>(samples[i]);
+          if (protocol::bounded_view(s->scene) != options.scene) continue;
+          FrameStatsEvent e;
+          e.scene = options.scene;
+          e.frame = s->frame;
+          e.assembly_ms = s->assembly_ms;
+          e.queue_ms = s->queue_ms;
+          e.broad_ms = s->broad_ms;
+          e.narrow_ms = s->narrow_ms;
+          e.depth_ms = s->depth_ms;
+          e.response_ms = s->response_ms;
+          e.compute_ms = s->compute_ms;
+          e.publish_ms = s->publish_ms;
+          e.objects = s->objects;
+          e.states = s->states;
+          e.rejected = s->rejected;
+          e.candidate_pairs = s->candidate_pairs;
+          e.overlapping_pairs = s->overlapping_pairs;
+          e.settled_nodes = s->settled_nodes;
+          e.contacts = s->contacts;
+          e.max_depth = s->max_depth;
+          e.dropped_frames = s->dropped_frames;
+          stats.push_back(std::move(e));
+        }
+        trim();
+      }
+      check_rc(dds_return_loan(stats_reader, samples.data(), n), "dds_return_loan");
       if (n < static_cast<dds_return_t>(kTakeBatch)) return;
     }
   }
@@ -377,13 +426,17 @@ std::unique_ptr<Client> Client::connect(const Options& options) {
   m.state_writer = writer(protocol::Topic::kState);
   m.forces_reader = reader(protocol::Topic::kForces);
   m.status_reader = reader(protocol::Topic::kStatus);
+  m.stats_reader = reader(protocol::Topic::kStats);
   m.waitset = check(dds_create_waitset(m.participant), "dds_create_waitset");
   m.wakeup = check(dds_create_guardcondition(m.participant), "dds_create_guardcondition");
   const dds_entity_t fc = check(dds_create_readcondition(m.forces_reader, DDS_ANY_STATE),
                                 "dds_create_readcondition(ContactForces)");
   const dds_entity_t sc = check(dds_create_readcondition(m.status_reader, DDS_ANY_STATE),
                                 "dds_create_readcondition(ServiceStatus)");
+  const dds_entity_t stc = check(dds_create_readcondition(m.stats_reader, DDS_ANY_STATE),
+                                 "dds_create_readcondition(FrameStats)");
   check_rc(dds_waitset_attach(m.waitset, fc, fc), "dds_waitset_attach");
+  check_rc(dds_waitset_attach(m.waitset, stc, stc), "dds_waitset_attach");
   check_rc(dds_waitset_attach(m.waitset, sc, sc), "dds_waitset_attach");
   check_rc(dds_waitset_attach(m.waitset, m.wakeup, m.wakeup), "dds_waitset_attach");
   return client;
@@ -586,6 +639,14 @@ std::vector<StatusEvent> Client::take_status_events() {
   std::lock_guard lock(impl_->mutex);
   std::vector<StatusEvent> out;
   out.swap(impl_->events);
+  return out;
+}
+
+std::vector<FrameStatsEvent> Client::take_frame_stats() {
+  poll(std::chrono::milliseconds(0));
+  std::lock_guard lock(impl_->mutex);
+  std::vector<FrameStatsEvent> out;
+  out.swap(impl_->stats);
   return out;
 }
 

@@ -130,6 +130,30 @@ struct StatusEvent {
   std::int64_t topology_timestamp = 0;
 };
 
+/// A FrameStats sample of this client's scene: the service's timings (milliseconds) and
+/// counts of one answered frame (docs/PROTOCOL.md, "FrameStats").
+struct FrameStatsEvent {
+  std::string scene;
+  std::int64_t frame = 0;
+  double assembly_ms = 0.0;
+  double queue_ms = 0.0;
+  double broad_ms = 0.0;
+  double narrow_ms = 0.0;
+  double depth_ms = 0.0;
+  double response_ms = 0.0;
+  double compute_ms = 0.0;
+  double publish_ms = 0.0;
+  std::uint32_t objects = 0;
+  std::uint32_t states = 0;
+  std::uint32_t rejected = 0;
+  std::uint64_t candidate_pairs = 0;
+  std::uint64_t overlapping_pairs = 0;
+  std::uint64_t settled_nodes = 0;
+  std::uint64_t contacts = 0;
+  double max_depth = 0.0;  ///< metres
+  std::uint64_t dropped_frames = 0;
+};
+
 /// Outcome of a registration as the service reported it.
 struct Registration {
   bool done = false;      ///< false: no verdict before the timeout
@@ -200,6 +224,11 @@ class TC_CLIENT_API Client {
 
   /// ServiceStatus samples received since the last call (all services, all scenes).
   std::vector<StatusEvent> take_status_events();
+
+  /// FrameStats samples of this client's scene received since the last call, in arrival
+  /// order (the reader keeps 16 per scene between two reads of DDS: a client that waits
+  /// for every frame's forces sees every frame's statistics).
+  std::vector<FrameStatsEvent> take_frame_stats();
 
   /// Reads whatever DDS has delivered, waiting at most `timeout` for the first sample.
   void poll(std::chrono::milliseconds timeout);

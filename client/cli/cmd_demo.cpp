@@ -1,0 +1,730 @@
+// `tetcollide demo SCENE [--frames N] [--out DIR] [--domain N] [--spawn-daemon]`: a small
+// simulator (client/sim: lumped-mass FEM, symplectic Euler) that drives a running
+// tetcollided over DDS exactly as an external simulator would: it registers the
+// scene's objects, publishes every frame's node positions, waits for the contact forces
+// and integrates with them. Writes a VTK series, PNG pictures, a stage-time plot and
+// summary.json under --out (default out/<scene>/). docs/DEMO.md documents the scenes,
+// the model, the outputs and the summary keys.
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <optional>
+
+#include "body.hpp"
+#include "cli_common.hpp"
+#include "core/io/mesh_io.hpp"
+#include "core/mesh/topology.hpp"
+#include "demo_support.hpp"
+#include "penetration.hpp"
+#include "recording.hpp"
+#include "render.hpp"
+#include "scene_file.hpp"
+#include "tetcollide/client.hpp"
+
+namespace tc::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+struct DemoArgs {
+  std::string scene;
+  int frames = 0;  // 0 = the scene's
+  std::string out;
+  std::optional<std::uint32_t> domain;
+  bool spawn_daemon = false;
+  std::string record;  // hidden: record frames [record_from, record_to] into this file
+  int record_from = 0;
+  int record_to = -1;
+};
+
+std::atomic<bool> g_demo_stop{false};
+extern "C" void on_demo_signal(int) {
+  g_demo_stop.store(true);
+}
+
+/// Restores SIGINT/SIGTERM on scope exit.
+class SignalScope {
+ public:
+  SignalScope() {
+    g_demo_stop.store(false);
+    struct sigaction a {};
+    a.sa_handler = on_demo_signal;
+    sigemptyset(&a.sa_mask);
+    sigaction(SIGINT, &a, &old_int_);
+    sigaction(SIGTERM, &a, &old_term_);
+  }
+  ~SignalScope() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  SignalScope(const SignalScope&) = delete;
+  SignalScope& operator=(const SignalScope&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+client::ObjectParams to_params(const sim::ObjectSpec& o) {
+  client::ObjectParams p;
+  p.stiffness = o.contact.stiffness;
+  p.damping = o.contact.damping;
+  p.max_force = o.contact.max_force;
+  p.is_static = o.is_static;
+  p.depth = o.contact.depth == "cffm"    ? client::DepthMethod::kCffm
+            : o.contact.depth == "exact" ? client::DepthMethod::kExact
+                                         : client::DepthMethod::kCpfm;
+  p.response = o.contact.response == "point"     ? client::ResponseKind::kPoint
+               : o.contact.response == "segment" ? client::ResponseKind::kSegment
+                                                 : client::ResponseKind::kAuto;
+  return p;
+}
+
+client::Mesh to_client_mesh(const TetMesh& m) {
+  client::Mesh out;
+  out.node_ids = m.node_ids;
+  out.rest_positions.assign(m.positions.data(), m.positions.data() + m.positions.size());
+  out.tets.reserve(m.tets.size() * 4);
+  for (const Tet& t : m.tets) out.tets.insert(out.tets.end(), t.begin(), t.end());
+  return out;
+}
+
+/// One object of the running scene.
+struct Entry {
+  sim::ObjectSpec spec;
+  std::optional<sim::Body> body;  // moving objects
+  TetMesh fixed;                  // static objects
+  client::ObjectParams params;
+  Eigen::Matrix3Xd contact;  // this frame's forces, 3 x n
+  Eigen::Matrix3Xd zero_velocity;
+  std::vector<std::array<std::int32_t, 3>> surface;  // boundary faces, for the pictures
+  [[nodiscard]] const Eigen::Matrix3Xd& positions() const {
+    return body ? body->positions() : fixed.positions;
+  }
+  [[nodiscard]] const TetMesh& mesh() const { return body ? body->rest_mesh() : fixed; }
+  [[nodiscard]] const Eigen::Matrix3Xd& velocities() const {
+    return body ? body->velocities() : zero_velocity;
+  }
+};
+
+std::vector<std::array<std::int32_t, 3>> boundary_of(const TetMesh& mesh) {
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
+}
+
+/// Draws the scene's objects at their current positions into `path`.
+Status render_frame(const std::vector<Entry>& entries, const sim::SceneSpec& scene, int frame,
+                    double max_depth_mm, const std::filesystem::path& path) {
+  std::vector<viz::Surface> surfaces;
+  for (const auto& e : entries) {
+    viz::Surface s;
+    s.positions = &e.positions();
+    s.triangles = e.surface;
+    s.base_color = e.spec.color.cast<float>();
+    surfaces.push_back(std::move(s));
+  }
+  viz::Camera cam;
+  if (scene.camera.set) {
+    cam.eye = scene.camera.eye;
+    cam.target = scene.camera.target;
+    cam.up = scene.camera.up;
+    cam.fov_deg = scene.camera.fov_deg;
+    cam.width = scene.image_width;
+    cam.height = scene.image_height;
+  } else {
+    cam = viz::fit_camera(surfaces, Eigen::Vector3d(-1.0, 1.2, -0.7), scene.image_width,
+                          scene.image_height);
+  }
+  viz::RenderOptions options;
+  char title[160];
+  std::snprintf(title, sizeof title, "frame %d  t = %.3f s  penetration %.1f mm", frame,
+                frame * scene.dt, max_depth_mm);
+  options.title = title;
+  return viz::write_png(viz::render(surfaces, cam, options), path.string());
+}
+
+/// Progress on stderr: a bar redrawn in place on a terminal, a line per 10 % otherwise.
+class Progress {
+ public:
+  explicit Progress(int total) : total_(total), tty_(isatty(STDERR_FILENO) != 0) {}
+  void update(int done, double ms_per_frame, std::size_t contacts) {
+    const auto now = Clock::now();
+    const int decile = done * 10 / std::max(1, total_);
+    if (tty_) {
+      if (done != total_ && now - last_ < 100ms) return;
+      last_ = now;
+      constexpr int kWidth = 30;
+      const int filled = done * kWidth / std::max(1, total_);
+      std::fprintf(stderr, "\r  [%.*s%.*s] %d/%d frames  %.1f ms/frame  %zu contacts   ", filled,
+                   "##############################", kWidth - filled,
+                   "..............................", done, total_, ms_per_frame, contacts);
+      if (done == total_) std::fprintf(stderr, "\n");
+    } else if (decile != last_decile_) {
+      last_decile_ = decile;
+      std::fprintf(stderr, "  %d/%d frames (%d%%), %.1f ms/frame, %zu contacts\n", done, total_,
+                   decile * 10, ms_per_frame, contacts);
+    }
+  }
+
+ private:
+  int total_;
+  bool tty_;
+  Clock::time_point last_{};
+  int last_decile_ = 0;
+};
+
+nlohmann::json stage_json(const std::vector<double>& v) {
+  return {{"p50", demo::percentile(v, 0.5)}, {"p99", demo::percentile(v, 0.99)}};
+}
+
+/// Counts forces records of `frame` in a recording (0 when unreadable).
+std::size_t recorded_answers(const std::filesystem::path& file, std::int64_t frame,
+                             std::size_t* topologies = nullptr) {
+  const auto records = replay::read_recording(file);
+  if (!records) return 0;
+  std::size_t n = 0;
+  std::size_t t = 0;
+  for (const auto& r : *records) {
+    if (const auto* f = std::get_if<replay::ForcesRecord>(&r)) n += f->frame == frame ? 1 : 0;
+    if (std::holds_alternative<replay::TopologyRecord>(r)) ++t;
+  }
+  if (topologies != nullptr) *topologies = t;
+  return n;
+}
+
+int run_demo(const DemoArgs& args) {
+  // ---- the scene ----
+  const auto roots = demo::data_roots();
+  Expected<sim::SceneSpec> spec = Error{ErrorCode::kIo, ""};
+  const auto file = demo::find_scene_file(args.scene);
+  if (!file.empty()) {
+    spec = sim::load_scene_file(file, roots);
+  } else if (args.scene == "torus_on_box") {
+    spec = sim::parse_scene(sim::embedded_torus_on_box(), "torus_on_box (embedded)", roots);
+  } else {
+    return report_error(Error{ErrorCode::kIo, "scene '" + args.scene +
+                                                  "' not found (a file, or a name in "
+                                                  "config/scenes: torus_on_box, ellipsoid_rain, "
+                                                  "tissue_tear)"});
+  }
+  if (!spec) return report_error(spec.error());
+  sim::SceneSpec& scene = *spec;
+  if (args.frames > 0) scene.frames = args.frames;
+  const std::filesystem::path out = args.out.empty() ? std::filesystem::path("out") / scene.name
+                                                     : std::filesystem::path(args.out);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) return report_error("cannot create " + out.string() + ": " + ec.message(), kExitBadInput);
+  // Old frames of an earlier run would mix with this run's series.
+  for (const auto& e : std::filesystem::directory_iterator(out, ec)) {
+    const auto name = e.path().filename().string();
+    if ((name.rfind("frame_", 0) == 0 &&
+         (e.path().extension() == ".vtu" || e.path().extension() == ".png")))
+      std::filesystem::remove(e.path(), ec);
+  }
+
+  std::vector<Entry> entries;
+  for (const auto& o : scene.objects) {
+    auto mesh = sim::load_object_mesh(o);
+    if (!mesh) return report_error(Error{mesh.error().code, o.name + ": " + mesh.error().message});
+    Entry e;
+    e.spec = o;
+    e.params = to_params(o);
+    if (o.is_static) {
+      e.fixed = std::move(*mesh);
+      e.zero_velocity = Eigen::Matrix3Xd::Zero(3, e.fixed.positions.cols());
+    } else {
+      auto body = sim::Body::create(std::move(*mesh), o.material);
+      if (!body)
+        return report_error(Error{body.error().code, o.name + ": " + body.error().message});
+      Eigen::Matrix3Xd v(3, body->node_count());
+      v.colwise() = o.velocity;
+      body->set_velocities(v);
+      if (o.fix_border > 0.0) body->fix_nodes(body->border_nodes(o.fix_border, o.fix_border));
+      e.body = std::move(*body);
+    }
+    e.surface = boundary_of(e.mesh());
+    entries.push_back(std::move(e));
+  }
+  double stable = std::numeric_limits<double>::infinity();
+  for (const auto& e : entries)
+    if (e.body) stable = std::min(stable, e.body->stable_dt());
+  const double sub_dt = scene.dt / scene.substeps;
+  if (sub_dt > stable)
+    std::fprintf(stderr,
+                 "tetcollide: warning: substep %.3g s exceeds the elastic stability limit %.3g s; "
+                 "raise 'substeps'\n",
+                 sub_dt, stable);
+
+  // ---- the service ----
+  SignalScope signals;
+  demo::ChildProcess daemon;
+  demo::ChildProcess recorder;
+  std::uint32_t domain = args.domain.value_or(0);
+  std::string dds_config;
+  if (args.spawn_daemon) {
+    if (!args.domain) domain = 100 + static_cast<std::uint32_t>(getpid()) % 120;
+    const auto xml = demo::find_cyclonedds_config();
+    if (!xml.empty()) dds_config = "file://" + xml.string();
+    const auto config = out / "tetcollided.yaml";
+    {
+      std::ofstream c(config);
+      c << "# Written by tetcollide demo --spawn-daemon: the embedded defaults, a private\n"
+           "# domain and the loopback Cyclone DDS config.\nversion: 1\ndds:\n  domain: "
+        << domain << "\n  cyclonedds_config: \"" << dds_config
+        << "\"\nlog:\n  timing_summary_period_s: 0\n";
+    }
+    const auto log = out / "tetcollided.log";
+    std::filesystem::remove(log, ec);
+    if (auto st = daemon.start({(demo::exe_dir() / "tetcollided").string(), "--config",
+                                config.string(), "--domain", std::to_string(domain)},
+                               log);
+        !st)
+      return report_error(st.error().message + " (build it: ninja -C build tetcollided)",
+                          kExitFailure);
+    std::fprintf(stderr, "tetcollide: started tetcollided (pid %d) on domain %u, log %s\n",
+                 static_cast<int>(daemon.pid()), domain, log.string().c_str());
+  }
+  client::Options options;
+  options.domain = domain;
+  options.scene = scene.name;
+  options.cyclonedds_config = dds_config;
+  options.resend_after = 500ms;
+  std::unique_ptr<client::Client> c;
+  try {
+    c = client::Client::connect(options);
+  } catch (const std::exception& e) {
+    return report_error(e.what(), kExitFailure);
+  }
+  {
+    const auto deadline = Clock::now() + 20s;
+    bool ready = false;
+    while (!ready && Clock::now() < deadline && !g_demo_stop.load()) {
+      ready = c->wait_for_service(100ms);
+      if (args.spawn_daemon && !daemon.alive())
+        return report_error(
+            "tetcollided exited during start-up; see " + (out / "tetcollided.log").string(),
+            kExitFailure);
+    }
+    if (!ready)
+      return report_error("no tetcollided answered on domain " + std::to_string(domain) +
+                              " within 20 s (start one, or pass --spawn-daemon)",
+                          kExitFailure);
+  }
+  sim::PenetrationProbe probe;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    auto& e = entries[i];
+    c->register_object(e.spec.name, to_client_mesh(e.mesh()), e.params);
+    probe.set_object(i, e.mesh().tets, e.mesh().num_nodes());
+  }
+  for (const auto& e : entries) {
+    const auto r = c->wait_registered(e.spec.name, 20s);
+    if (!r.done || !r.ok)
+      return report_error("the service did not register '" + e.spec.name +
+                              "': " + (r.done ? r.message : std::string("no verdict in 20 s")),
+                          kExitFailure);
+  }
+
+  // ---- the run ----
+  const int frames = scene.frames;
+  std::fprintf(stderr, "tetcollide: scene %s, %zu objects, %d frames of %.3g s, output %s\n",
+               scene.name.c_str(), entries.size(), frames, scene.dt, out.string().c_str());
+  std::vector<double> round_trip;
+  std::map<std::int64_t, client::FrameStatsEvent> stats;
+  std::vector<demo::PvdEntry> pvd;
+  std::vector<std::string> pngs;
+  std::size_t rejected = 0;
+  std::string first_rejection;
+  std::size_t tears = 0;
+  std::size_t torn_tets = 0;
+  std::int64_t first_tear = -1;
+  double max_penetration = 0.0;
+  std::int64_t max_penetration_frame = -1;
+  double energy0 = 0.0;
+  double contact_work = 0.0;
+  double ke_max = 0.0;
+  const auto total_energy = [&] {
+    double e = 0.0;
+    for (const auto& en : entries)
+      if (en.body) e += en.body->energy(scene.gravity).total() + en.body->dissipated();
+    return e;
+  };
+  energy0 = total_energy();
+  double energy_drift = 0.0;
+  Progress progress(frames);
+  const auto run_start = Clock::now();
+  int done = 0;
+  std::size_t last_contacts = 0;
+  bool recording = false;
+  for (int f = 0; f < frames; ++f) {
+    if (g_demo_stop.load()) break;
+    if (!args.record.empty() && f == args.record_from) {
+      std::filesystem::remove(args.record, ec);
+      if (auto st = recorder.start({(demo::exe_dir() / "tetcollide").string(), "record", "--domain",
+                                    std::to_string(domain), "--out", args.record},
+                                   out / "record.log");
+          !st)
+        return report_error(st.error().message, kExitFailure);
+      if (!c->wait_for_readers(2, 20s))
+        return report_error("the recorder did not start", kExitFailure);
+      std::size_t topologies = 0;
+      const auto until = Clock::now() + 20s;
+      while (Clock::now() < until) {
+        recorded_answers(args.record, -1, &topologies);
+        if (topologies >= entries.size()) break;
+        c->poll(20ms);
+      }
+      if (topologies < entries.size())
+        return report_error("the recorder missed the topologies", kExitFailure);
+      recording = true;
+    }
+    std::vector<client::ObjectState> states;
+    for (const auto& e : entries)
+      if (e.body) {
+        const auto& x = e.body->positions();
+        const auto& v = e.body->velocities();
+        states.push_back({e.spec.name,
+                          std::span<const double>(x.data(), static_cast<std::size_t>(x.size())),
+                          std::span<const double>(v.data(), static_cast<std::size_t>(v.size()))});
+      }
+    const auto t0 = Clock::now();
+    c->publish_states(f, states);
+    const auto answer = c->wait_forces(f, 20s);
+    if (!answer)
+      return report_error("frame " + std::to_string(f) + " was not answered within 20 s",
+                          kExitFailure);
+    round_trip.push_back(elapsed_ms(t0));
+    for (auto& s : c->take_frame_stats()) stats[s.frame] = s;
+    std::size_t contacts = 0;
+    for (auto& e : entries) {
+      e.contact = Eigen::Matrix3Xd::Zero(3, e.positions().cols());
+      const auto* o = answer->find(e.spec.name);
+      if (o == nullptr) continue;
+      if (o->status != 0) {
+        ++rejected;
+        if (first_rejection.empty())
+          first_rejection = e.spec.name + " at frame " + std::to_string(f) + ": " +
+                            client::status_name(o->status);
+        continue;
+      }
+      for (std::size_t k = 0; k < o->nodes.size(); ++k) {
+        const Index n = o->nodes[k];
+        if (n < 0 || n >= e.contact.cols()) continue;
+        e.contact.col(n) =
+            Eigen::Vector3d(o->forces[3 * k], o->forces[3 * k + 1], o->forces[3 * k + 2]);
+      }
+      contacts += o->nodes.size();
+    }
+    last_contacts = contacts;
+    // Local check of the service's work: how deep does any node sit in another object?
+    const bool vtu_due = f % scene.output_every == 0 || f == frames - 1;
+    const bool png_due =
+        std::find(scene.render_frames.begin(), scene.render_frames.end(), f) !=
+            scene.render_frames.end() ||
+        (f == frames - 1 && !scene.render_frames.empty() &&
+         *std::max_element(scene.render_frames.begin(), scene.render_frames.end()) >= frames);
+    std::vector<std::vector<double>> depth;
+    if ((contacts > 0 && f % 4 == 0) || vtu_due || png_due) {
+      std::vector<const Eigen::Matrix3Xd*> xs;
+      for (const auto& e : entries) xs.push_back(&e.positions());
+      depth = probe.measure(xs);
+      for (const auto& d : depth)
+        for (const double v : d)
+          if (v > max_penetration) {
+            max_penetration = v;
+            max_penetration_frame = f;
+          }
+    }
+    if (vtu_due) {
+      TetMesh all;
+      Index total = 0;
+      std::size_t tets = 0;
+      for (const auto& e : entries) {
+        total += static_cast<Index>(e.positions().cols());
+        tets += e.mesh().tets.size();
+      }
+      all.positions.resize(3, total);
+      all.tets.reserve(tets);
+      VtuField fd{"depth", 1, {}};
+      VtuField ff{"force", 3, {}};
+      VtuField fv{"velocity", 3, {}};
+      VtuField fo{"object", 1, {}};
+      Index base = 0;
+      for (std::size_t i = 0; i < entries.size(); ++i) {
+        const auto& e = entries[i];
+        const auto& x = e.positions();
+        all.positions.middleCols(base, x.cols()) = x;
+        for (Eigen::Index n = 0; n < x.cols(); ++n) {
+          all.node_ids.push_back(n);
+          fd.values.push_back(depth.empty() ? 0.0 : depth[i][static_cast<std::size_t>(n)]);
+          for (int k = 0; k < 3; ++k) {
+            ff.values.push_back(e.contact(k, n));
+            fv.values.push_back(e.velocities()(k, n));
+          }
+        }
+        for (Tet t : e.mesh().tets) {
+          for (auto& n : t) n += base;
+          all.tets.push_back(t);
+          fo.values.push_back(static_cast<double>(i));
+        }
+        base += static_cast<Index>(x.cols());
+      }
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
+      const std::vector<VtuField> point{fd, ff, fv};
+      const std::vector<VtuField> cell{fo};
+      if (auto st = write_vtu(out / name, all, point, cell); !st) return report_error(st.error());
+      pvd.push_back({f * scene.dt, name});
+    }
+    if (png_due) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%04d.png", f);
+      double deepest = 0.0;
+      for (const auto& d : depth)
+        for (const double v : d) deepest = std::max(deepest, v);
+      if (auto st = render_frame(entries, scene, f, deepest * 1e3, out / name); !st)
+        return report_error(st.error());
+      pngs.push_back(name);
+    }
+    // ---- integrate ----
+    for (auto& e : entries) {
+      if (!e.body) continue;
+      const Eigen::Matrix3Xd before = e.body->positions();
+      e.body->step(scene.dt, scene.substeps, scene.gravity, e.contact);
+      contact_work += (e.contact.array() * (e.body->positions() - before).array()).sum();
+      ke_max = std::max(ke_max, e.body->energy(scene.gravity).kinetic);
+    }
+    energy_drift = total_energy() - contact_work - energy0;
+    // ---- tearing: a new topology version, the states go on with it ----
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+      auto& e = entries[i];
+      if (!e.body || e.spec.tear_strain <= 0.0) continue;
+      const double e_before = e.body->energy(scene.gravity).total();
+      const std::size_t removed = e.body->tear(e.spec.tear_strain);
+      if (removed == 0) continue;
+      // Energy of the removed tets leaves the books (it is not an integration error).
+      energy0 += e.body->energy(scene.gravity).total() - e_before;
+      ++tears;
+      torn_tets += removed;
+      if (first_tear < 0) first_tear = f;
+      c->register_object(e.spec.name, to_client_mesh(e.body->rest_mesh()), e.params);
+      probe.set_object(i, e.body->rest_mesh().tets, e.body->node_count());
+      e.surface = boundary_of(e.body->rest_mesh());
+      const auto r = c->wait_registered(e.spec.name, 20s);
+      if (!r.done || !r.ok)
+        return report_error("the service did not register version " +
+                                std::to_string(c->version(e.spec.name)) + " of '" + e.spec.name +
+                                "': " + (r.done ? r.message : std::string("no verdict in 20 s")),
+                            kExitFailure);
+    }
+    if (recording && f == args.record_to) {
+      const auto until = Clock::now() + 20s;
+      while (recorded_answers(args.record, f) < entries.size() && Clock::now() < until)
+        c->poll(20ms);
+      recorder.stop(SIGINT);
+      recording = false;
+    }
+    done = f + 1;
+    progress.update(done, elapsed_ms(run_start) / done, contacts);
+  }
+  if (recording) recorder.stop(SIGINT);
+  const double run_s = elapsed_ms(run_start) / 1000.0;
+  // The last frame's statistics follow its forces.
+  {
+    const auto until = Clock::now() + 2s;
+    while (done > 0 && stats.count(done - 1) == 0 && Clock::now() < until) {
+      c->poll(20ms);
+      for (auto& s : c->take_frame_stats()) stats[s.frame] = s;
+    }
+  }
+  nlohmann::json versions = nlohmann::json::object();
+  for (const auto& e : entries) versions[e.spec.name] = c->version(e.spec.name);
+  c.reset();
+  const int daemon_exit = args.spawn_daemon ? daemon.stop(SIGTERM) : 0;
+  if (g_demo_stop.load()) std::fprintf(stderr, "\ntetcollide: interrupted after %d frames\n", done);
+
+  // ---- outputs ----
+  if (auto st = demo::write_pvd(out / (scene.name + ".pvd"), pvd); !st)
+    return report_error(st.error());
+  std::vector<double> xs, assembly, queue, broad, narrow, depth_ms, response, compute, publish;
+  double service_max_depth = 0.0;
+  std::uint64_t max_contacts = 0;
+  std::uint64_t dropped = 0;
+  {
+    std::ofstream csv(out / "stage_times.csv");
+    csv << "frame,round_trip_ms,assembly_ms,queue_ms,broad_ms,narrow_ms,depth_ms,response_ms,"
+           "compute_ms,publish_ms,contacts,max_depth_m\n";
+    for (int f = 0; f < done; ++f) {
+      const auto it = stats.find(f);
+      if (it == stats.end()) continue;
+      const auto& s = it->second;
+      xs.push_back(f);
+      assembly.push_back(s.assembly_ms);
+      queue.push_back(s.queue_ms);
+      broad.push_back(s.broad_ms);
+      narrow.push_back(s.narrow_ms);
+      depth_ms.push_back(s.depth_ms);
+      response.push_back(s.response_ms);
+      compute.push_back(s.compute_ms);
+      publish.push_back(s.publish_ms);
+      service_max_depth = std::max(service_max_depth, s.max_depth);
+      max_contacts = std::max<std::uint64_t>(max_contacts, s.contacts);
+      dropped = s.dropped_frames;
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%.6g\n", f,
+                    round_trip[static_cast<std::size_t>(f)], s.assembly_ms, s.queue_ms, s.broad_ms,
+                    s.narrow_ms, s.depth_ms, s.response_ms, s.compute_ms, s.publish_ms,
+                    static_cast<unsigned long long>(s.contacts), s.max_depth);
+      csv << line;
+    }
+  }
+  std::vector<double> rt_matched;
+  for (const double x : xs) rt_matched.push_back(round_trip[static_cast<std::size_t>(x)]);
+  {
+    std::ofstream svg(out / "stage_times.svg");
+    svg << demo::line_chart_svg("Collision time per frame by stage (" + scene.name + ")", "frame",
+                                "milliseconds", xs,
+                                {{"round trip (client)", "#000000", rt_matched},
+                                 {"compute (pipeline)", "#7f7f7f", compute},
+                                 {"broad phase", "#1f77b4", broad},
+                                 {"narrow phase", "#ff7f0e", narrow},
+                                 {"depth", "#2ca02c", depth_ms},
+                                 {"response", "#d62728", response},
+                                 {"publish", "#9467bd", publish}});
+  }
+  {
+    const std::vector<viz::Series> lines{{"round trip (client)", rt_matched, {0, 0, 0}},
+                                         {"compute (pipeline)", compute, {127, 127, 127}},
+                                         {"broad phase", broad, {31, 119, 180}},
+                                         {"narrow phase", narrow, {255, 127, 14}},
+                                         {"depth", depth_ms, {44, 160, 44}},
+                                         {"response", response, {214, 39, 40}},
+                                         {"publish", publish, {148, 103, 189}}};
+    viz::PlotOptions po;
+    po.title = "Collision time per frame by stage (" + scene.name + ")";
+    po.x_label = "frame";
+    po.y_label = "milliseconds";
+    po.width = 1000;
+    po.height = 500;
+    if (auto st =
+            viz::write_png(viz::plot_lines(xs, lines, po), (out / "stage_times.png").string());
+        !st)
+      return report_error(st.error());
+  }
+  const double drift_rel = ke_max > 0.0 ? std::abs(energy_drift) / ke_max : 0.0;
+  nlohmann::json summary = {{"scene", scene.name},
+                            {"frames", done},
+                            {"frame_stats_received", stats.size()},
+                            {"dt_s", scene.dt},
+                            {"substeps", scene.substeps},
+                            {"simulated_s", done * scene.dt},
+                            {"run_s", run_s},
+                            {"objects", entries.size()},
+                            {"collision_ms",
+                             {{"round_trip", stage_json(rt_matched)},
+                              {"assembly", stage_json(assembly)},
+                              {"queue", stage_json(queue)},
+                              {"broad", stage_json(broad)},
+                              {"narrow", stage_json(narrow)},
+                              {"depth", stage_json(depth_ms)},
+                              {"response", stage_json(response)},
+                              {"compute", stage_json(compute)},
+                              {"publish", stage_json(publish)}}},
+                            {"max_penetration_m", max_penetration},
+                            {"max_penetration_frame", max_penetration_frame},
+                            {"service_max_depth_m", service_max_depth},
+                            {"max_contacts", max_contacts},
+                            {"energy_drift_j", energy_drift},
+                            {"energy_drift_rel", drift_rel},
+                            {"kinetic_max_j", ke_max},
+                            {"rejected_states", rejected},
+                            {"dropped_frames", dropped},
+                            {"tears", tears},
+                            {"torn_tets", torn_tets},
+                            {"first_tear_frame", first_tear},
+                            {"interrupted", g_demo_stop.load()},
+                            {"outputs",
+                             {{"pvd", scene.name + ".pvd"},
+                              {"vtu", pvd.size()},
+                              {"png", pngs},
+                              {"stage_times_png", "stage_times.png"},
+                              {"stage_times_csv", "stage_times.csv"},
+                              {"stage_times_svg", "stage_times.svg"}}}};
+  summary["topology_versions"] = versions;
+  {
+    std::ofstream js(out / "summary.json");
+    js << summary.dump(2) << "\n";
+  }
+  // ---- the human summary ----
+  std::printf("\n== tetcollide demo %s: %d frames (%.2f s simulated) in %.1f s\n",
+              scene.name.c_str(), done, done * scene.dt, run_s);
+  std::printf("   frame statistics received: %zu\n", stats.size());
+  std::printf("   collision time per frame, ms      p50      p99\n");
+  const auto row = [&](const char* name, const std::vector<double>& v) {
+    std::printf("     %-28s %8.3f %8.3f\n", name, demo::percentile(v, 0.5),
+                demo::percentile(v, 0.99));
+  };
+  row("round trip (client)", rt_matched);
+  row("assembly", assembly);
+  row("broad phase", broad);
+  row("narrow phase", narrow);
+  row("depth", depth_ms);
+  row("response", response);
+  row("compute (pipeline total)", compute);
+  row("publish", publish);
+  std::printf("   max penetration (local, exact depth): %.3f mm at frame %lld\n",
+              max_penetration * 1e3, static_cast<long long>(max_penetration_frame));
+  std::printf("   max depth (service FrameStats):       %.3f mm, max contacts %llu\n",
+              service_max_depth * 1e3, static_cast<unsigned long long>(max_contacts));
+  std::printf("   energy drift: %.4g J (%.3g of the peak kinetic energy %.4g J)\n", energy_drift,
+              drift_rel, ke_max);
+  if (tears > 0)
+    std::printf("   tearing: %zu tets removed in %zu cuts (first at frame %lld)\n", torn_tets,
+                tears, static_cast<long long>(first_tear));
+  if (rejected > 0)
+    std::printf("   rejected states: %zu (first: %s)\n", rejected, first_rejection.c_str());
+  std::printf("   outputs in %s/:\n", out.string().c_str());
+  std::printf(
+      "     %s.pvd + %zu frame_NNNN.vtu (ParaView; fields depth, force, velocity, object)\n",
+      scene.name.c_str(), pvd.size());
+  for (const auto& p : pngs) std::printf("     %s\n", p.c_str());
+  std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
+  (void)last_contacts;
+  if (args.spawn_daemon && daemon_exit != 0)
+    std::fprintf(stderr, "tetcollide: warning: tetcollided exited with %d\n", daemon_exit);
+  if (g_demo_stop.load()) return kExitFailure;
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_demo_command(CLI::App& app, Context& ctx) {
+  auto args = std::make_shared<DemoArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "demo", "Run a demo scene (simulator client) against tetcollided over DDS");
+  cmd->add_option("scene", args->scene,
+                  "Scene name (config/scenes: torus_on_box, ellipsoid_rain, tissue_tear) or a "
+                  "scene file")
+      ->required();
+  cmd->add_option("--frames", args->frames, "Frames to simulate (default: the scene's)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--out", args->out, "Output directory (default: out/<scene>)");
+  cmd->add_option("--domain", args->domain, "DDS domain id of the service")
+      ->check(CLI::Range(0, 232));
+  cmd->add_flag("--spawn-daemon", args->spawn_daemon,
+                "Start a private tetcollided for the run (loopback config) and stop it after");
+  cmd->add_option("--record", args->record, "Record frames --record-from..--record-to")->group("");
+  cmd->add_option("--record-from", args->record_from)->group("");
+  cmd->add_option("--record-to", args->record_to)->group("");
+  cmd->callback([args, &ctx] { ctx.exit_code = run_demo(*args); });
+}
+
+}  // namespace tc::cli

@@ -1,0 +1,74 @@
+// Plumbing of `tetcollide demo` (cmd_demo.cpp): finding scenes and programs, a private
+// tetcollided child process, and the output files (VTK series, stage-time CSV/SVG).
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/common/result.hpp"
+#include "core/io/mesh_io.hpp"
+
+namespace tc::cli::demo {
+
+/// Directory of the running executable (build/bin or <prefix>/bin).
+std::filesystem::path exe_dir();
+
+/// Folders where scene files and meshes are looked for: the current directory, the
+/// source tree the program was built from, the tree above build/bin, and the installed
+/// share/tetcollide folder.
+std::vector<std::filesystem::path> data_roots();
+
+/// The scene file for `scene` (a path, or a name looked up as config/scenes/NAME.yaml
+/// and share/tetcollide/scenes/NAME.yaml under the data roots); empty when not found.
+std::filesystem::path find_scene_file(const std::string& scene);
+
+/// The loopback Cyclone DDS config (config/cyclonedds.xml or the installed one), or "".
+std::filesystem::path find_cyclonedds_config();
+
+/// A program started as a child (tetcollided, the recorder): sent SIGTERM when this
+/// process dies, stopped by stop() or the destructor.
+class ChildProcess {
+ public:
+  ChildProcess() = default;
+  ~ChildProcess();
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  /// Starts `argv` (argv[0] a path) with stdout and stderr appended to `log`.
+  Status start(const std::vector<std::string>& argv, const std::filesystem::path& log);
+  /// True while the child runs (reaps it when it exited).
+  bool alive();
+  /// Sends `sig`, then waits up to `timeout` (SIGKILL after). Returns the exit code, or -1.
+  int stop(int sig = 15, std::chrono::milliseconds timeout = std::chrono::seconds(10));
+  [[nodiscard]] pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+/// A ParaView collection (.pvd) of time steps.
+struct PvdEntry {
+  double time = 0.0;
+  std::string file;  ///< relative to the .pvd
+};
+Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>& entries);
+
+/// One curve of a line chart.
+struct Series {
+  std::string name;
+  std::string color;  ///< SVG colour
+  std::vector<double> y;
+};
+/// A standalone SVG line chart (x = index, shared y axis from 0).
+std::string line_chart_svg(const std::string& title, const std::string& x_label,
+                           const std::string& y_label, const std::vector<double>& x,
+                           const std::vector<Series>& series);
+
+/// Nearest-rank percentile (q in [0, 1]); 0 for an empty list.
+double percentile(std::vector<double> values, double q);
+
+}  // namespace tc::cli::demo

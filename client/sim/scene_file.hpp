@@ -1,0 +1,101 @@
+// Demo scene files (config/scenes/*.yaml, format version 1): which meshes, where, made
+// of what, for how long, what to render. docs/DEMO.md documents every key. Parsing
+// errors name the file, the line and the key at fault.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "body.hpp"
+#include "core/common/result.hpp"
+
+namespace tc::sim {
+
+/// Contact parameters sent to the service with the topology (mirror of
+/// tc::client::ObjectParams, kept free of DDS here).
+struct ContactSpec {
+  double stiffness = 1e5;  ///< N/m^2
+  double damping = 0.0;
+  double max_force = 0.0;
+  std::string depth = "cpfm";     ///< cpfm | cffm | exact
+  std::string response = "auto";  ///< point | segment | auto
+};
+
+struct ObjectSpec {
+  std::string name;
+  std::filesystem::path mesh;  ///< resolved path
+  bool is_static = false;
+  Eigen::Vector3d translate = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotate_deg = Eigen::Vector3d::Zero();  ///< about x, then y, then z
+  double scale = 1.0;
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Material material;
+  ContactSpec contact;
+  /// Pin the nodes with |x| >= limit or |y| >= limit at rest (a slab's border); 0 = none.
+  double fix_border = 0.0;
+  /// Tear (remove tets) where the principal strain exceeds this; 0 = never tears.
+  double tear_strain = 0.0;
+  Eigen::Vector3d color{0.8, 0.8, 0.8};
+};
+
+/// Several copies of one object at random places (the rain).
+struct RainSpec {
+  ObjectSpec object;  ///< name is the prefix: <name>_000, <name>_001, ...
+  int count = 0;
+  Eigen::Vector3d region_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d region_max = Eigen::Vector3d::Zero();
+  std::uint64_t seed = 1;
+};
+
+struct CameraSpec {
+  bool set = false;  ///< false: fit the camera to the scene
+  Eigen::Vector3d eye{2.0, -2.0, 1.5};
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  Eigen::Vector3d up{0.0, 0.0, 1.0};
+  double fov_deg = 35.0;
+};
+
+struct SceneSpec {
+  std::string name;  ///< DDS scene name and output folder name
+  std::string description;
+  double dt = 1e-3;  ///< frame time step, s (one service round trip per frame)
+  int substeps = 8;  ///< elastic substeps per frame
+  int frames = 500;
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};
+  int output_every = 10;           ///< a VTU every this many frames (and the last)
+  std::vector<int> render_frames;  ///< frames drawn as PNG (clamped to the run)
+  int image_width = 640;
+  int image_height = 480;
+  CameraSpec camera;
+  std::vector<ObjectSpec> objects;  ///< rain copies expanded here
+  std::optional<RainSpec> rain;
+};
+
+/// Parses a scene from YAML text. `where` names the source in errors; relative mesh
+/// paths are resolved against `search` (first existing wins). kParse / kInvalidArgument
+/// with "where:line: message", kIo for a missing mesh.
+Expected<SceneSpec> parse_scene(const std::string& text, const std::string& where,
+                                const std::vector<std::filesystem::path>& search);
+
+/// Reads a scene file (search path: the file's directory, its grandparent, then
+/// `extra_search`).
+Expected<SceneSpec> load_scene_file(const std::filesystem::path& path,
+                                    const std::vector<std::filesystem::path>& extra_search);
+
+/// The torus-on-box scene built into the program (`tetcollide demo torus_on_box` works
+/// without config/scenes); the same text as config/scenes/torus_on_box.yaml.
+const std::string& embedded_torus_on_box();
+
+}  // namespace tc::sim
+
+namespace tc::sim {
+
+/// Reads the object's mesh and places it: scaled, rotated (x, then y, then z, degrees),
+/// translated. kIo / kParse from the reader.
+Expected<TetMesh> load_object_mesh(const ObjectSpec& object);
+
+}  // namespace tc::sim
