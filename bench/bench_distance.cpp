@@ -140,7 +140,7 @@ void register_case(const Case* c, bool big) {
   for (const auto& [v, vn] :
        {std::pair{CffmVariant::kDescent, "descent"}, std::pair{CffmVariant::kPaper, "paper"},
         std::pair{CffmVariant::kPaperDescent, "paper_descent"},
-        std::pair{CffmVariant::kMultiStart, "multi"}})
+        std::pair{CffmVariant::kMultiStart, "multi"}, std::pair{CffmVariant::kNearStarts, "near"}})
     reg("cffm/" + n + "/" + vn,
         [c, v = v](benchmark::State& s) { full(s, c, {.method = DepthMethod::kCffm, .cffm = v}); });
   reg("exact/" + n + "/threads:1", [c](benchmark::State& s) {

@@ -249,7 +249,7 @@ void add_bench_command(CLI::App& app, Context& ctx) {
   distance->add_option(
       "--methods", args->methods,
       std::string("Comma-separated methods (default ") + kDefault3d + "; 2D meshes: " + kDefault2d +
-          "); also cpfm:radix, cpfm:heap, cffm:paper, cffm:paper-descent, cffm:multi");
+          "); also cpfm:radix, cpfm:heap, cffm:paper, cffm:paper-descent, cffm:multi, cffm:near");
   distance->add_option("--repeat", args->repeat, "Runs per method (time is the median)")
       ->capture_default_str();
   distance->add_option("--csv", args->csv, "Write the results as CSV");

@@ -86,9 +86,10 @@ void add_distance_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<DistanceArgs>();
   auto* cmd = app.add_subcommand("distance", "Depth map (distance to the boundary) of a mesh");
   cmd->add_option("FILE", args->file, "Mesh file (.msh, .node/.ele)")->required();
-  cmd->add_option("--method", args->method,
-                  "exact | cpfm[:bucket|radix|heap] | cffm[:descent|paper|paper-descent|multi] | "
-                  "fm:N (grid fast marching, N points per axis)")
+  cmd->add_option(
+         "--method", args->method,
+         "exact | cpfm[:bucket|radix|heap] | cffm[:descent|paper|paper-descent|multi|near] | "
+         "fm:N (grid fast marching, N points per axis)")
       ->capture_default_str();
   cmd->add_option("--targets", args->targets,
                   "File of 0-based tet indices: lazy depth map until their nodes are settled");

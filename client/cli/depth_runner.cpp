@@ -145,7 +145,7 @@ Expected<MethodSpec> parse_method(const std::string& text) {
   const auto bad = [&] {
     return usage_error("unknown method '" + text +
                        "': use exact, cpfm[:bucket|radix|heap], "
-                       "cffm[:descent|paper|paper-descent|multi] or fm:N (N >= 2)");
+                       "cffm[:descent|paper|paper-descent|multi|near] or fm:N (N >= 2)");
   };
   if (head == "exact" && colon == std::string::npos) {
     spec.kind = MethodSpec::Kind::kExact;
@@ -169,6 +169,8 @@ Expected<MethodSpec> parse_method(const std::string& text) {
       spec.options.cffm = CffmVariant::kPaperDescent;
     } else if (option == "multi") {
       spec.options.cffm = CffmVariant::kMultiStart;
+    } else if (option == "near") {
+      spec.options.cffm = CffmVariant::kNearStarts;
     } else if (!option.empty() && option != "descent") {
       return bad();
     }

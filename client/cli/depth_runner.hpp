@@ -34,7 +34,7 @@ struct DepthMesh {
 Expected<DepthMesh> load_depth_mesh(const std::filesystem::path& path, bool force_2d);
 
 /// A depth-map method as named on the command line:
-///   exact | cpfm[:bucket|radix|heap] | cffm[:descent|paper|paper-descent|multi] | fm:N
+///   exact | cpfm[:bucket|radix|heap] | cffm[:descent|paper|paper-descent|multi|near] | fm:N
 struct MethodSpec {
   enum class Kind { kExact, kCpfm, kCffm, kGrid } kind = Kind::kCpfm;
   std::string label;  ///< the name as given, e.g. "fm:64"

@@ -12,8 +12,10 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <string>
 
 #include "core/distance/point_simplex_distance.hpp"
+#include "core/io/mesh_io.hpp"
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
 
@@ -205,8 +207,9 @@ TEST_P(DepthOrdering, ExactLeCffmAndCpfmWithCffmMoreAccurate) {
     // CPFM returns |x - p| for a boundary node p: a point of the boundary, so never
     // below the distance to the boundary (up to the last bit of the two computations).
     EXPECT_GE(ep.min, -1e-15);
-    for (const CffmVariant v : {CffmVariant::kPaper, CffmVariant::kDescent,
-                                CffmVariant::kPaperDescent, CffmVariant::kMultiStart}) {
+    for (const CffmVariant v :
+         {CffmVariant::kPaper, CffmVariant::kDescent, CffmVariant::kPaperDescent,
+          CffmVariant::kMultiStart, CffmVariant::kNearStarts}) {
       const auto cffm =
           solve(c.mesh, topo, {.method = DepthMethod::kCffm, .cffm = v, .queue = GetParam()});
       const ErrorStats ef = error_stats(cffm, exact);
@@ -239,6 +242,34 @@ TEST(DepthOrdering, CffmVariantsOnTorusRankAsMeasured) {
   EXPECT_LE(multi.max, 0.005 * deepest);
   EXPECT_LE(multi.mean, 1e-4 * deepest);
   EXPECT_LE(multi.mean, descent.mean);
+}
+
+TEST(DepthOrdering, CffmNearStartsMeetsTheAccuracyTargetOnTheDemoMeshes) {
+  // Issue 3's CFFM accuracy target: max error <= 0.5% of the object's largest depth and
+  // mean error <= 0.01% on the torus and the ball (docs/BENCHMARKS.md, "Targets";
+  // measured 0.47% / 0.00044% and 0 / 0). The default kDescent misses it on the torus
+  // (2.02% / 0.011%), so this also checks that kNearStarts is no worse than kDescent
+  // on every demo mesh.
+  for (const char* name : {"torus.msh", "ball.msh", "box.msh"}) {
+    SCOPED_TRACE(name);
+    auto m = read_mesh(test::mesh_path(name));
+    ASSERT_TRUE(m) << m.error().message;
+    const Topology topo = build_topology(m->tets, m->num_nodes());
+    const auto exact = exact_of(*m, topo);
+    const double deepest = *std::max_element(exact.begin(), exact.end());
+    const auto stats = [&](CffmVariant v) {
+      return error_stats(solve(*m, topo, {.method = DepthMethod::kCffm, .cffm = v}), exact);
+    };
+    const ErrorStats near = stats(CffmVariant::kNearStarts);
+    const ErrorStats descent = stats(CffmVariant::kDescent);
+    if (std::string(name) != "box.msh") {
+      EXPECT_LE(near.max, 0.005 * deepest);
+      EXPECT_LE(near.mean, 1e-4 * deepest);
+    }
+    EXPECT_GE(near.min, -1e-15);
+    EXPECT_LE(near.max, descent.max);
+    EXPECT_LE(near.mean, descent.mean);
+  }
 }
 
 // ---------------------------------------------------------------------------
@@ -309,6 +340,8 @@ INSTANTIATE_TEST_SUITE_P(
                       LazyCase{DepthMethod::kCffm, CffmVariant::kPaper, QueueKind::kBucket},
                       LazyCase{DepthMethod::kCffm, CffmVariant::kPaperDescent, QueueKind::kRadix},
                       LazyCase{DepthMethod::kCffm, CffmVariant::kMultiStart, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kNearStarts, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kNearStarts, QueueKind::kRadix},
                       LazyCase{DepthMethod::kExact, CffmVariant::kDescent, QueueKind::kBucket}));
 
 TEST(DepthLazy, ShallowContactSettlesFewNodes) {
@@ -426,8 +459,9 @@ TEST(DepthDegenerate, FlatAndCollapsedTetsNeitherCrashNorProduceNaN) {
   const Topology topo = build_topology(m.tets, m.num_nodes());
   const auto exact = exact_of(m, topo);
   for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
-    for (const CffmVariant v : {CffmVariant::kPaper, CffmVariant::kDescent,
-                                CffmVariant::kPaperDescent, CffmVariant::kMultiStart}) {
+    for (const CffmVariant v :
+         {CffmVariant::kPaper, CffmVariant::kDescent, CffmVariant::kPaperDescent,
+          CffmVariant::kMultiStart, CffmVariant::kNearStarts}) {
       const auto d = solve(m, topo, {.method = method, .cffm = v});
       for (Index i = 0; i < m.num_nodes(); ++i) {
         ASSERT_FALSE(std::isnan(d[i]));

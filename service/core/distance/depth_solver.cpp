@@ -35,6 +35,10 @@ constexpr float kInfF = std::numeric_limits<float>::infinity();
 /// Upper bound on the steps of one CFFM descent (each step strictly lowers the
 /// distance; in practice 0 to 3 steps are taken).
 constexpr int kMaxDescentSteps = 32;
+/// kNearStarts: a settled neighbour's feature is walked from when its distance is at
+/// most this fraction above the best so far (measured: 0 leaves the torus at 0.83% max
+/// error, 0.05 reaches kMultiStart's 0.47%; docs/DEPTH_MAPS.md).
+constexpr float kNearStartSlack = 0.05f;
 /// How many pops ahead the bucket queue's nodes are prefetched (measured).
 constexpr std::size_t kPrefetchFar = 12;
 constexpr std::size_t kPrefetchMid = 8;
@@ -92,7 +96,15 @@ enum class Mode {
   kFeatureDescent,       ///< a feature and its closest point; descent when finalised
   kFeatureMultiStart,    ///< kFeatureDescent, plus descents from every settled
                          ///< neighbour's feature
+  kFeatureNearStarts,    ///< kFeatureDescent, plus descents from the settled
+                         ///< neighbours' features nearly as near as the best
 };
+
+/// True for the modes that carry a closest point per node.
+constexpr bool carries_point(Mode m) {
+  return m == Mode::kFeatureDescent || m == Mode::kFeatureMultiStart ||
+         m == Mode::kFeatureNearStarts;
+}
 
 Csr csr_from_rows(const std::vector<std::vector<Index>>& rows) {
   Csr csr;
@@ -287,7 +299,8 @@ struct BasicDepthSolver<D>::Impl {
     for (auto& r : rec) r.key = kInfF;
     feature.assign(nn, -1);
     if (options.method == DepthMethod::kCffm &&
-        (options.cffm == CffmVariant::kDescent || options.cffm == CffmVariant::kMultiStart))
+        (options.cffm == CffmVariant::kDescent || options.cffm == CffmVariant::kMultiStart ||
+         options.cffm == CffmVariant::kNearStarts))
       point.assign(nn, Vecf<D>::Zero());
     depth.assign(nn, kInf);
     boundary_pos.assign(static_cast<std::size_t>(num_boundary), Vecd<D>::Zero());
@@ -361,8 +374,7 @@ struct BasicDepthSolver<D>::Impl {
     const Index f = feature[u];
     const Index* it = adjacency.indices.data() + adjacency.offsets[u];
     const Index* const end = adjacency.indices.data() + adjacency.offsets[u + 1];
-    if constexpr (kMode == Mode::kPoint || kMode == Mode::kFeatureDescent ||
-                  kMode == Mode::kFeatureMultiStart) {
+    if constexpr (kMode == Mode::kPoint || carries_point(kMode)) {
       // Point propagation: CPFM's boundary node, or CFFM's closest point on the feature.
       const Vecf<D> xf = kMode == Mode::kPoint ? pos_of<D>(rec[f]) : point[u];
       for (; it != end; ++it) {
@@ -496,8 +508,7 @@ struct BasicDepthSolver<D>::Impl {
       s = best;
     }
     feature[u] = s;
-    if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeatureMultiStart)
-      point[u] = q.point;
+    if constexpr (carries_point(kMode)) point[u] = q.point;
     rec[u].key = qd;
   }
 
@@ -531,6 +542,43 @@ struct BasicDepthSolver<D>::Impl {
     point[u] = best_point;
   }
 
+  // kFeatureNearStarts: kMultiStart's extra walks, only from the settled neighbours'
+  // features that are already nearly as near as the best result so far (distance at
+  // most kNearStartSlack above it); the others almost never lead to a nearer minimum
+  // (docs/DEPTH_MAPS.md, "CFFM variants", has the counts). Each distinct feature is
+  // evaluated once (one point-to-feature distance) and walked from at most once.
+  void near_starts(Index u) {
+    constexpr float kSlack2 = (1.0f + kNearStartSlack) * (1.0f + kNearStartSlack);
+    Index best_f = feature[u];
+    float best_key = rec[u].key;
+    Vecf<D> best_point = point[u];
+    const Vecf<D> x = pos_of<D>(rec[u]);
+    constexpr int kMaxStarts = 64;
+    Index tried[kMaxStarts];
+    int count = 0;
+    tried[count++] = best_f;
+    for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
+      const Index v = adjacency.indices[k];
+      if (!is_final(rec[v].key)) continue;
+      const Index f = feature[v];
+      if (std::find(tried, tried + count, f) != tried + count) continue;
+      tried[count++] = f;
+      Vecf<D> c[D];
+      load_corners(f, c);
+      if (simplex_distance<D, float>(x, c).sq_dist >= best_key * kSlack2) continue;
+      feature[u] = f;
+      descend<Mode::kFeatureNearStarts>(u);
+      if (rec[u].key < best_key) {
+        best_key = rec[u].key;
+        best_f = feature[u];
+        best_point = point[u];
+      }
+    }
+    feature[u] = best_f;
+    rec[u].key = best_key;
+    point[u] = best_point;
+  }
+
   // The features across side j of feature s.
   std::span<const Index> across_side(Index s, int j) const {
     if (across[s][j] >= 0) return {&across[s][j], 1};
@@ -552,8 +600,7 @@ struct BasicDepthSolver<D>::Impl {
     for (Index b = 0; b < num_boundary; ++b) {
       rec[b].key = -0.0f;
       feature[b] = kMode == Mode::kPoint ? b : seed_simplex[b];
-      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeatureMultiStart)
-        point[b] = pos_of<D>(rec[b]);
+      if constexpr (carries_point(kMode)) point[b] = pos_of<D>(rec[b]);
       settled_list.push_back(b);
       if (lazy && mark[b] == stamp) --remaining;
     }
@@ -589,10 +636,9 @@ struct BasicDepthSolver<D>::Impl {
           __builtin_prefetch(adjacency.indices.data() + adjacency.offsets[a]);
       }
       if (is_final(rec[u].key)) continue;
-      if constexpr (kMode == Mode::kFeatureDescent || kMode == Mode::kFeaturePaperDescent ||
-                    kMode == Mode::kFeatureMultiStart)
-        descend<kMode>(u);
+      if constexpr (kMode != Mode::kPoint && kMode != Mode::kFeaturePaper) descend<kMode>(u);
       if constexpr (kMode == Mode::kFeatureMultiStart) multi_start(u);
+      if constexpr (kMode == Mode::kFeatureNearStarts) near_starts(u);
       rec[u].key = -rec[u].key;
       settled_list.push_back(u);
       if (lazy && mark[u] == stamp && --remaining == 0) break;
@@ -644,6 +690,9 @@ struct BasicDepthSolver<D>::Impl {
               return;
             case CffmVariant::kMultiStart:
               march<Mode::kFeatureMultiStart>(q, lazy, remaining);
+              return;
+            case CffmVariant::kNearStarts:
+              march<Mode::kFeatureNearStarts>(q, lazy, remaining);
               return;
             case CffmVariant::kDescent:
               break;
