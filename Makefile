@@ -24,7 +24,7 @@ help:
 	@echo "make test        deps + build + all tests (ctest)"
 	@echo "make test-asan   every test under ASan+UBSan (build/asan-ubsan)"
 	@echo "make test-tsan   the daemon's tests under TSan (build/tsan)"
-	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/fuzz)"
+	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/asan-ubsan)"
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job on embedded defaults"
 	@echo "make format      clang-format every source file"
@@ -62,7 +62,7 @@ test-tsan: deps
 	ctest --preset tsan -j $(JOBS)
 
 fuzz-build: deps
-	cmake --preset fuzz
+	cmake --preset asan-ubsan
 	cmake --build --preset fuzz -j $(JOBS)
 
 fuzz: fuzz-build

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Runs every libFuzzer target of build/fuzz for FUZZ_SECONDS each (default 60) and prints
+# Runs every libFuzzer target of build/asan-ubsan for FUZZ_SECONDS each (default 60) and prints
 # a summary: runs, execs/s, coverage (libFuzzer's cov/ft counters), corpus size, result.
 # Usage: scripts/fuzz.sh [target...]   (default: all six; `make fuzz`, `make fuzz-short`)
-# Env:   FUZZ_SECONDS, FUZZ_BUILD (default build/fuzz).
+# Env:   FUZZ_SECONDS, FUZZ_BUILD (default build/asan-ubsan).
 # The working corpus grows in $FUZZ_BUILD/corpus/<target> (seeded read-only from
 # fuzz/corpus/<target>); a crash, hang (> 10 s per input) or leak leaves its input in
 # $FUZZ_BUILD/artifacts/<target>/ and makes this script fail. Keep such an input as
@@ -10,7 +10,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-60}
-build=${FUZZ_BUILD:-build/fuzz}
+build=${FUZZ_BUILD:-build/asan-ubsan}
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(gmsh tetgen mesh samples config recording)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
@@ -20,7 +20,7 @@ summary=()
 for t in "${targets[@]}"; do
   bin="$build/bin/fuzz_$t"
   if [ ! -x "$bin" ]; then
-    echo "fuzz.sh: $bin not built (cmake --preset fuzz && cmake --build --preset fuzz)" >&2
+    echo "fuzz.sh: $bin not built (make fuzz-build)" >&2
     exit 2
   fi
   corpus="$build/corpus/$t"

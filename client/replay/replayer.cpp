@@ -47,14 +47,15 @@ double deviation(const ForcesRecord& want, const client::ObjectForces& got) {
   return out;
 }
 
+/// Same bytes (memcmp on empty vectors would pass null pointers, which memcmp forbids).
+bool same_bytes(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
 bool identical(const ForcesRecord& want, const client::ObjectForces& got) {
   return want.status == got.status && want.nodes == got.nodes &&
-         want.forces.size() == got.forces.size() &&
-         std::memcmp(want.forces.data(), got.forces.data(), want.forces.size() * sizeof(double)) ==
-             0 &&
-         want.stiffness.size() == got.stiffness.size() &&
-         std::memcmp(want.stiffness.data(), got.stiffness.data(),
-                     want.stiffness.size() * sizeof(double)) == 0;
+         same_bytes(want.forces, got.forces) && same_bytes(want.stiffness, got.stiffness);
 }
 
 }  // namespace

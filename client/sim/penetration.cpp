@@ -28,7 +28,7 @@ struct Box {
 /// Uniform grid of one object's tet boxes for point location.
 class TetGrid {
  public:
-  TetGrid(const Eigen::Matrix3Xd& x, const std::vector<Tet>& tets, const Box& bounds) : x_(x) {
+  TetGrid(const Eigen::Matrix3Xd& x, const std::vector<Tet>& tets, const Box& bounds) {
     double edge = 0.0;
     for (const Tet& t : tets) edge += (x.col(t[1]) - x.col(t[0])).norm();
     cell_ = std::max(1e-9, 1.5 * edge / static_cast<double>(std::max<std::size_t>(1, tets.size())));
@@ -62,7 +62,6 @@ class TetGrid {
            (static_cast<std::uint64_t>(k[1] & 0x1fffff) << 21) |
            static_cast<std::uint64_t>(k[2] & 0x1fffff);
   }
-  const Eigen::Matrix3Xd& x_;
   double cell_ = 1.0;
   Eigen::Vector3d origin_;
   std::unordered_map<std::uint64_t, std::vector<Index>> cells_;

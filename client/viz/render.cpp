@@ -14,11 +14,11 @@ namespace tc::viz {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Shading: colour = base * (ambient + diffuse * |n.l|) + specular * (n.l)^shininess.
+// Shading: colour = base * (ambient + diffuse * |n.l|) + specular * (n.h)^32 (Blinn-Phong;
+// the exponent is applied by five squarings in the rasteriser).
 constexpr float kAmbient = 0.28f;
 constexpr float kDiffuse = 0.72f;
 constexpr float kSpecular = 0.12f;
-constexpr int kShininess = 32;
 // Wireframe: line half-width in output pixels and its darkening factor.
 constexpr double kEdgeHalfWidth = 0.55;
 constexpr float kEdgeDarken = 0.55f;
@@ -251,11 +251,15 @@ void raster_triangle(Frame& fb, const View& view, const CamVertex& a, const CamV
     int xl = x0, xr = x1;
     for (int i = 0; i < 3 && xl <= xr; ++i) {
       const double c0 = ey[i] * py + e0[i];  // w_i = ex_i * px + c0
+      // Clamped to [-1, w] before the conversion: near-degenerate edges give bounds far
+      // outside int's range.
+      const double lim = static_cast<double>(fb.w);
       if (ex[i] > 0) {
-        xl = std::max(xl, static_cast<int>(std::max(std::ceil(-c0 / ex[i] - 0.5) - 1, -1.0)));
+        xl =
+            std::max(xl, static_cast<int>(std::clamp(std::ceil(-c0 / ex[i] - 0.5) - 1, -1.0, lim)));
       } else if (ex[i] < 0) {
-        xr = std::min(xr, static_cast<int>(std::min(std::floor(-c0 / ex[i] - 0.5) + 1,
-                                                    static_cast<double>(fb.w))));
+        xr = std::min(xr,
+                      static_cast<int>(std::clamp(std::floor(-c0 / ex[i] - 0.5) + 1, -1.0, lim)));
       } else if (c0 < 0) {
         xr = xl - 1;
       }

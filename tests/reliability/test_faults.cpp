@@ -18,6 +18,7 @@
 #include "daemon_process.hpp"
 #include "recording.hpp"
 #include "replayer.hpp"
+#include "sanitizer.hpp"
 #include "scenes.hpp"
 #include "service_common.hpp"
 #include "tetcollide/client.hpp"
@@ -190,7 +191,8 @@ TEST_F(Faults, KilledClientsObjectsAreDroppedWithinTheLease) {
       "threads %d\n",
       figures[1].rss_mb, figures.back().rss_mb, kRepetitions, figures.back().fds,
       figures.back().threads);
-  EXPECT_LT(figures.back().rss_mb, figures[1].rss_mb * 1.05 + 1.0);
+  // Under ASan freed memory sits in the quarantine (LeakSanitizer checks for leaks there).
+  if (!test::kSanitized) EXPECT_LT(figures.back().rss_mb, figures[1].rss_mb * 1.05 + 1.0);
 }
 
 // The service SIGKILLed and restarted 10 times while a recorded session is replayed
@@ -370,12 +372,12 @@ TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
   }
   // Bound measured on this machine: well under one 60 Hz period when nothing blocks;
   // a blocking writer would wait up to its 10 s max_blocking_time.
-  EXPECT_LT(max_publish_ms_stopped, 100.0);
+  EXPECT_LT(max_publish_ms_stopped, 100.0 * test::kTimeSlack);
   // At most the frames the service had already taken in (one running, max_queued = 2
   // waiting) are answered late; the 4 s published meanwhile are not replayed.
   EXPECT_LE(old_after_continue, 3);
   EXPECT_GE(first_new_ms, 0.0) << "no frame published after SIGCONT was answered";
-  EXPECT_LT(first_new_ms, 1000.0);
+  EXPECT_LT(first_new_ms, 1000.0 * test::kTimeSlack);
   std::printf(
       "[ figure ] service stopped 4 s: longest publish_states %.1f ms (while stopped "
       "%.1f ms); %d old frames answered after SIGCONT; first new frame answered %.0f ms "
@@ -422,7 +424,7 @@ TEST_F(Faults, StoppedClientBlocksNeitherTheServiceNorOtherClients) {
     if (stopped && !continued) max_latency_stopped = std::max(max_latency_stopped, d);
     std::this_thread::sleep_until(t0 + 16667us);
   }
-  EXPECT_LT(max_latency_stopped, 250.0);
+  EXPECT_LT(max_latency_stopped, 250.0 * test::kTimeSlack);
   ASSERT_EQ(worker.stop(SIGTERM), 0);
   const auto summary = nlohmann::json::parse(read_text(dir_ / "stopped_client.out"));
   const auto last_published = summary["last_published_frame"].get<std::int64_t>();

@@ -8,6 +8,7 @@
 #include <tbb/task_arena.h>
 
 #include <Eigen/Geometry>
+#include <array>
 #include <random>
 #include <set>
 #include <tuple>
@@ -18,6 +19,7 @@
 namespace tc {
 namespace {
 
+using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
 constexpr double kRel = kDefaultRelativeTolerance;
@@ -29,9 +31,21 @@ TetMesh moved(TetMesh m, const Eigen::Matrix3d& rotation, const Vector3d& offset
   return m;
 }
 
+/// Three draws in order (see random_rotation).
+template <class Dist>
+Eigen::Vector3d draw3(Dist& d, std::mt19937& rng) {
+  Eigen::Vector3d v;
+  for (int i = 0; i < 3; ++i) v[i] = d(rng);
+  return v;
+}
+
 Eigen::Matrix3d random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  // One draw per statement: the order in which function arguments are evaluated is
+  // unspecified (gcc and clang differ), and every compiler must see the same rotation.
+  std::array<double, 4> c{};
+  for (double& v : c) v = n(rng);
+  Eigen::Quaterniond q(c[0], c[1], c[2], c[3]);
   return q.normalized().toRotationMatrix();
 }
 
@@ -204,8 +218,12 @@ TEST_P(DetectEachBroadPhase, RandomPosesMatchBruteForce) {
   opt.broad_phase = GetParam();
   int with_contacts = 0;
   for (int pose = 0; pose < 8; ++pose) {
-    const Object a(moved(box, random_rotation(rng), Vector3d(u(rng), u(rng), u(rng))));
-    const Object b(moved(other, random_rotation(rng), Vector3d(0.3 + u(rng), u(rng), u(rng))));
+    const Matrix3d ra = random_rotation(rng);
+    const Vector3d ta = draw3(u, rng);
+    const Object a(moved(box, ra, ta));
+    const Matrix3d rb = random_rotation(rng);
+    const Vector3d tb = Vector3d(0.3, 0, 0) + draw3(u, rng);
+    const Object b(moved(other, rb, tb));
     DetectStats st;
     const PairContacts got = run(a, b, opt, &st);
     const PairContacts want = brute_force(a, b);
@@ -346,10 +364,13 @@ class ThreadCount : public ::testing::TestWithParam<BroadPhaseKind> {};
 
 TEST_P(ThreadCount, OutputIsBitIdenticalWith1To4Threads) {
   std::mt19937 rng(42);
-  const Object a(moved(test::structured_box(12, 12, 12, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
-                       random_rotation(rng), Vector3d::Zero()));
-  const Object b(moved(test::structured_box(10, 10, 10, Vector3d(0, 0, 0), Vector3d(1, 1, 1)),
-                       random_rotation(rng), Vector3d(0.6, 0.5, 0.4)));
+  // Unit cubes rotated about their centres, centres 0.88 apart: each holds a ball of
+  // radius 0.5, so they overlap whatever the rotations.
+  const Vector3d lo = Vector3d::Constant(-0.5), hi = Vector3d::Constant(0.5);
+  const Matrix3d ra = random_rotation(rng);
+  const Object a(moved(test::structured_box(12, 12, 12, lo, hi), ra, Vector3d::Zero()));
+  const Matrix3d rb = random_rotation(rng);
+  const Object b(moved(test::structured_box(10, 10, 10, lo, hi), rb, Vector3d(0.6, 0.5, 0.4)));
   DetectOptions opt;
   opt.broad_phase = GetParam();
   std::vector<PairContacts> results;

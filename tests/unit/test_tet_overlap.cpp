@@ -542,7 +542,9 @@ TEST(ClipSegment, IntervalMatchesDenseSampling) {
 class ClipCases : public ::testing::TestWithParam<std::tuple<double, double>> {};
 
 TEST_P(ClipCases, ThroughInsideInFaceTouchingAndOutside) {
-  const auto [scale, offset] = GetParam();
+  // Plain variables, not a structured binding: clang 14 cannot capture bindings in lambdas.
+  const double scale = std::get<0>(GetParam());
+  const double offset = std::get<1>(GetParam());
   const Vector3d o(-offset, offset, 3 * offset);
   const TetCorners t = transform(unit_tet(), scale, o);
   const auto clip = [&](const Vector3d& a, const Vector3d& b) {
