@@ -192,7 +192,9 @@ TEST_F(Faults, KilledClientsObjectsAreDroppedWithinTheLease) {
       figures[1].rss_mb, figures.back().rss_mb, kRepetitions, figures.back().fds,
       figures.back().threads);
   // Under ASan freed memory sits in the quarantine (LeakSanitizer checks for leaks there).
-  if (!test::kSanitized) EXPECT_LT(figures.back().rss_mb, figures[1].rss_mb * 1.05 + 1.0);
+  if (!test::kSanitized) {
+    EXPECT_LT(figures.back().rss_mb, figures[1].rss_mb * 1.05 + 1.0);
+  }
 }
 
 // The service SIGKILLed and restarted 10 times while a recorded session is replayed
