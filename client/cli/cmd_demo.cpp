@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -367,6 +368,9 @@ int run_demo(const DemoArgs& args) {
     if (g_demo_stop.load()) break;
     if (!args.record.empty() && f == args.record_from) {
       std::filesystem::remove(args.record, ec);
+      // The recorder is a child process: it inherits CYCLONEDDS_URI, which must name the
+      // same (loopback) Cyclone config as the daemon spawned above, or the two never meet.
+      if (!dds_config.empty()) ::setenv("CYCLONEDDS_URI", dds_config.c_str(), 1);
       if (auto st = recorder.start({(demo::exe_dir() / "tetcollide").string(), "record", "--domain",
                                     std::to_string(domain), "--out", args.record},
                                    out / "record.log");

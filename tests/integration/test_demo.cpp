@@ -95,8 +95,8 @@ TEST(DemoTest, UnknownSceneIsBadInput) {
 }
 
 TEST(DemoTest, RecordingsOfTheDemoScenesReplayBitForBit) {
-  if (!std::filesystem::exists(demo_recordings()))
-    GTEST_SKIP() << "no demo recordings in " << demo_recordings();
+  ASSERT_TRUE(std::filesystem::is_directory(demo_recordings()))
+      << "no demo recordings in '" << demo_recordings().string() << "' (TC_RECORDINGS unset?)";
   const auto dir = make_temp_dir("itest-demo-replay");
   const std::uint32_t domain = private_domain();
   DaemonProcess daemon(dir, domain, "version: 1\nlog:\n  timing_summary_period_s: 0\n");
