@@ -382,6 +382,13 @@ TEST_F(ServiceTest, AVerdictIsMatchedToItsOwnWrite) {
 }
 
 TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
+  // A daemon whose assembly wait (2 s) dwarfs any compute time, even under sanitizers:
+  // an answer well within it was not held back waiting for the static object's state.
+  std::string config = kConfig;
+  config.replace(config.find("assembly_wait_ms: 50"), 20, "assembly_wait_ms: 2000");
+  daemon_.reset();
+  daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, config);
+  ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
   auto c = connect("static");
   TwoBoxes s;
   client::ObjectParams floor;
@@ -396,8 +403,8 @@ TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
     const auto t0 = std::chrono::steady_clock::now();
     const auto forces = c->wait_forces(f, 5s);
     ASSERT_TRUE(forces && forces->frame == f);
-    // Answered without the 50 ms assembly wait.
-    EXPECT_LT(std::chrono::steady_clock::now() - t0, 45ms) << "frame " << f;
+    // Answered without the 2 s assembly wait.
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, 1000ms) << "frame " << f;
   }
 }
 
