@@ -13,6 +13,7 @@
 #include <set>
 #include <tuple>
 
+#include "core/io/mesh_io.hpp"
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
 
@@ -247,6 +248,32 @@ TEST_P(DetectEachBroadPhase, AlignedGridsMatchBruteForce) {
   expect_identical(got, brute_force(a, b));
   expect_well_formed(got);
   EXPECT_FALSE(got.edges_a_in_b.empty());
+}
+
+// Meshes nobody here shaped (tests/data/meshes/foreign: a Gmsh HXT cylinder with two
+// orphan nodes, a TetGen genus-1 tube, 1-based), posed so that the cylinder passes
+// through the tube's hole and its wall: every broad phase against brute force.
+TEST_P(DetectEachBroadPhase, ForeignMeshesMatchBruteForce) {
+  auto cylinder = read_mesh(test::data_path("meshes/foreign/cylinder_hxt.msh"));
+  auto tube = read_mesh(test::data_path("meshes/foreign/tube.1.node"));
+  ASSERT_TRUE(cylinder) << cylinder.error().message;
+  ASSERT_TRUE(tube) << tube.error().message;
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> u(-0.06, 0.06);
+  DetectOptions opt;
+  opt.broad_phase = GetParam();
+  int with_contacts = 0;
+  for (int pose = 0; pose < 6; ++pose) {
+    const Matrix3d r = random_rotation(rng);
+    const Vector3d t = draw3(u, rng) + Vector3d(0, 0, 0.05);
+    const Object a(*tube);
+    const Object b(moved(*cylinder, r, t));
+    const PairContacts got = run(a, b, opt);
+    expect_identical(got, brute_force(a, b));
+    expect_well_formed(got);
+    with_contacts += !got.empty();
+  }
+  EXPECT_GE(with_contacts, 4);
 }
 
 INSTANTIATE_TEST_SUITE_P(Detect, DetectEachBroadPhase, kAllKinds, kind_name);
