@@ -214,6 +214,7 @@ struct Client::Impl {
           f.topology_version = s->topology_version;
           f.status = s->status;
           f.state_frame = s->state_frame;
+          f.answer_id = s->answer_id;
           // An answer computed without the state this client published for that frame
           // (the frame was dispatched before the state arrived, e.g. delayed by packet
           // loss) is not the answer to it: the service answers the frame again once the
@@ -222,7 +223,19 @@ struct Client::Impl {
           f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
           f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
           f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
-          answers[s->frame][object] = std::move(f);
+          auto& frame_answers = answers[s->frame];
+          // The other objects' answers of that same computation were computed without the
+          // missing state too (with its object's older positions), so answers of two
+          // computations of a frame are never combined: an answer of another computation
+          // replaces every answer of the frame taken so far (rejections excepted: they do
+          // not depend on other states). A computation that lacked one of this client's
+          // states thus never completes the frame; the one with every state does.
+          if (f.status == 0 && f.answer_id != 0)
+            std::erase_if(frame_answers, [&](const auto& kv) {
+              return kv.second.status == 0 && kv.second.answer_id != 0 &&
+                     kv.second.answer_id != f.answer_id;
+            });
+          frame_answers[object] = std::move(f);
           touched.insert(s->frame);
         }
         if (callback)

@@ -94,6 +94,7 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   s.topology_version = m.topology_version;
   s.status = m.status;
   s.state_frame = m.state_frame;
+  s.answer_id = m.answer_id;
   protocol::borrow(s.nodes, const_cast<Index*>(m.nodes.data()), m.nodes.size());
   protocol::borrow(s.forces, const_cast<double*>(m.forces.data()), m.forces.size());
   protocol::borrow(s.stiffness, const_cast<double*>(m.stiffness.data()), m.stiffness.size());

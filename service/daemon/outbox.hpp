@@ -25,6 +25,9 @@ struct ForcesMessage {
   std::span<const double> stiffness;  ///< 9k row-major df/dx blocks, or empty
   /// Frame of the object's state the forces were computed from (-1: rest positions).
   std::int64_t state_frame = -1;
+  /// The computation that produced this answer, shared by every answer of one frame
+  /// computation (ContactForces.answer_id); 0 when not from a computation.
+  std::uint64_t answer_id = 0;
 };
 
 /// One scene's frame timings and counts (FrameStats topic).

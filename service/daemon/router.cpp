@@ -269,10 +269,19 @@ void Router::try_dispatch(const std::string& scene_name, Scene& scene, Clock::ti
       job.state_frames.push_back(s.frame);
     }
   }
-  if (!frame->complete)
-    spdlog::debug("{}: frame {} dispatched after the assembly wait with {} of {} states",
-                  scene_name, job.frame, job.states.size() + job.rejected.size(),
-                  scene.registry.size());
+  if (!frame->complete && spdlog::should_log(spdlog::level::debug)) {
+    std::string missing;
+    for (const auto& name : scene.registry.expected()) {
+      const auto has = [&](const auto& s) { return s.object == name; };
+      if (std::none_of(job.states.begin(), job.states.end(), has) &&
+          std::none_of(job.rejected.begin(), job.rejected.end(), has))
+        missing += (missing.empty() ? "" : ", ") + name;
+    }
+    spdlog::debug(
+        "{}: frame {} dispatched after the assembly wait with {} of {} states (none from {})",
+        scene_name, job.frame, job.states.size() + job.rejected.size(), scene.registry.size(),
+        missing);
+  }
   jobs_.post(scene_name, std::move(job));
 }
 

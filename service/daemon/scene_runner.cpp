@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <exception>
 
 #include "samples.hpp"
@@ -28,6 +29,17 @@ double percentile(std::vector<double>& values, double q) {
   const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5);
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return values[k];
+}
+
+/// A new ContactForces.answer_id for one frame computation: unique within the process
+/// (every scene draws from it) and, seeded from the clock, different from the ids of an
+/// earlier run of the service, whose answers a client may still hold.
+std::uint64_t next_answer_id() {
+  static std::atomic<std::uint64_t> next{
+      static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                     std::chrono::system_clock::now().time_since_epoch())
+                                     .count())};
+  return next.fetch_add(1, std::memory_order_relaxed);
 }
 
 }  // namespace
@@ -133,6 +145,9 @@ void SceneRunner::run_frame(FrameJob& job) {
     outbox_.publish_status(msg);
   }
   const auto computed = Clock::now();
+  // Every answer of this computation carries its id: a client combines only answers of
+  // one computation (docs/PROTOCOL.md, "Newest wins").
+  const std::uint64_t answer_id = next_answer_id();
   for (const auto& err : output.errors) {
     StatusMessage msg;
     msg.kind = StatusKind::kError;
@@ -156,6 +171,7 @@ void SceneRunner::run_frame(FrameJob& job) {
       f.topology_version = version;
       f.status = tetcollide_STATUS_INTERNAL;
       f.state_frame = job.frame;
+      f.answer_id = answer_id;
       outbox_.publish_forces(f);
     }
   } else {
@@ -166,7 +182,7 @@ void SceneRunner::run_frame(FrameJob& job) {
                                         [&](const auto& e) { return e.object == name; });
       if (!rejected && active_.count(name) != 0) state_frame_[name] = job.state_frames[i];
     }
-    publish_answers(job, output);
+    publish_answers(job, output, answer_id);
   }
   const auto published = Clock::now();
 
@@ -197,7 +213,8 @@ void SceneRunner::run_frame(FrameJob& job) {
   report_timing(stats.core.total_ms, latency);
 }
 
-void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output) {
+void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output,
+                                  std::uint64_t answer_id) {
   // Index the pipeline's per-object results by name.
   std::vector<const ObjectForces*> forces;
   forces.reserve(output.forces.size());
@@ -221,6 +238,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
   ForcesMessage msg;
   msg.scene = scene_;
   msg.frame = job.frame;
+  msg.answer_id = answer_id;
   for (const auto& [name, version] : active_) {
     msg.object = name;
     msg.topology_version = version;
@@ -258,6 +276,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     m.topology_version = version;
     m.status = code;
     m.state_frame = job.frame;
+    m.answer_id = answer_id;
     outbox_.publish_forces(m);
   };
   for (const auto& r : job.rejected) answer_unheld(r.object, r.version, r.code);

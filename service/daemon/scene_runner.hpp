@@ -73,7 +73,7 @@ class SceneRunner {
   void run_topology(TopologyJob& job);
   void run_remove(const RemoveJob& job);
   void run_frame(FrameJob& job);
-  void publish_answers(const FrameJob& job, const FrameOutput& output);
+  void publish_answers(const FrameJob& job, const FrameOutput& output, std::uint64_t answer_id);
   void report_timing(double compute_ms, double latency_ms);
 
   std::string scene_;

@@ -21,6 +21,7 @@ struct Forces {
   std::vector<double> forces;
   std::vector<double> stiffness;
   std::int64_t state_frame = -1;
+  std::uint64_t answer_id = 0;
 };
 
 struct Stats {
@@ -43,7 +44,8 @@ class OutboxRecorder final : public Outbox {
                       {m.nodes.begin(), m.nodes.end()},
                       {m.forces.begin(), m.forces.end()},
                       {m.stiffness.begin(), m.stiffness.end()},
-                      m.state_frame});
+                      m.state_frame,
+                      m.answer_id});
   }
   void publish_stats(const StatsMessage& m) override {
     std::lock_guard lock(mutex_);

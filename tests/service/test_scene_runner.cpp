@@ -147,6 +147,31 @@ TEST_F(SceneRunnerTest, AnswersNameTheStateTheyWereComputedFrom) {
   EXPECT_EQ(answers[1].state_frame, -1);
 }
 
+// ContactForces.answer_id ties the answers of one computation together: a frame computed
+// without b's late state and again with it gives two sets a client must not mix (the
+// first set's answer for a was computed with b at rest).
+TEST_F(SceneRunnerTest, AnswersOfOneComputationShareAnId) {
+  add("a", 1, box_at(0.0));
+  add("b", 1, box_at(0.8));
+  const TetMesh a = box_at(0.0);
+  const TetMesh b = box_at(0.8);
+  frame(4, {FrameObjectInput{"a", 1, a.positions}});  // b's state not in (yet)
+  frame(4, {FrameObjectInput{"b", 1, b.positions}});  // b's late state: frame 4 again
+  frame(5, {FrameObjectInput{"a", 1, a.positions}},
+        {RejectedState{"c", 1, tetcollide_STATUS_UNKNOWN_OBJECT}});
+  const auto four = outbox_.forces_of("s", 4);
+  const auto five = outbox_.forces_of("s", 5);
+  ASSERT_EQ(four.size(), 4u);
+  ASSERT_EQ(five.size(), 3u);  // a, b and the rejected c
+  EXPECT_NE(four[0].answer_id, 0u);
+  EXPECT_EQ(four[1].answer_id, four[0].answer_id);
+  EXPECT_EQ(four[3].answer_id, four[2].answer_id);
+  EXPECT_NE(four[2].answer_id, four[0].answer_id);
+  EXPECT_EQ(five[1].answer_id, five[0].answer_id);
+  EXPECT_EQ(five[2].answer_id, five[0].answer_id);
+  EXPECT_NE(five[0].answer_id, four[2].answer_id);
+}
+
 TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {
   add("a", 1, box_at(0.0));
   // An inverted state: the pipeline rejects a's frame; a is answered with the code.

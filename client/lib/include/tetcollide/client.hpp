@@ -100,6 +100,9 @@ struct ObjectForces {
   /// Frame of this object's state the forces were computed from (== frame for answers
   /// this client waits for; -1: rest positions). See ContactForces.state_frame.
   std::int64_t state_frame = -1;
+  /// The service's computation this answer comes from (ContactForces.answer_id): the
+  /// answers of one FrameForces all come from one computation; 0 from older services.
+  std::uint64_t answer_id = 0;
 };
 
 /// Every answer of one frame for this client's objects, sorted by object name.
