@@ -1,9 +1,13 @@
 #include "recording.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
 
 namespace tc::replay {
 namespace {
@@ -25,6 +29,40 @@ json doubles(const std::vector<double>& values) {
     }
   }
   return a;
+}
+
+/// An integer field of type T: a JSON integer within T's range. nlohmann's get<T>() would
+/// also accept a float and convert it with a cast that is undefined out of range (found
+/// by the recording fuzzer: 1.2e21 as a node index).
+template <typename T>
+T integer(const json& v, const char* what) {
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    if (u <= static_cast<std::uint64_t>(std::numeric_limits<T>::max())) return static_cast<T>(u);
+  } else if (v.is_number_integer()) {
+    const auto i = v.get<std::int64_t>();
+    if constexpr (std::is_signed_v<T>) {
+      if (i >= static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
+          (sizeof(T) >= sizeof(std::int64_t) ||
+           i <= static_cast<std::int64_t>(std::numeric_limits<T>::max())))
+        return static_cast<T>(i);
+    } else if (i >= 0 && static_cast<std::uint64_t>(i) <=
+                             static_cast<std::uint64_t>(std::numeric_limits<T>::max())) {
+      return static_cast<T>(i);
+    }
+  } else {
+    throw std::invalid_argument(std::string("'") + what + "' must be an integer");
+  }
+  throw std::invalid_argument(std::string("'") + what + "' is out of range");
+}
+
+template <typename T>
+std::vector<T> integers(const json& a, const char* what) {
+  if (!a.is_array()) throw std::invalid_argument(std::string("'") + what + "' must be an array");
+  std::vector<T> out;
+  out.reserve(a.size());
+  for (const auto& v : a) out.push_back(integer<T>(v, what));
+  return out;
 }
 
 std::vector<double> read_doubles(const json& a) {
@@ -158,10 +196,10 @@ Record decode(const json& j) {
     r.t = t;
     r.scene = j.at("scene").get<std::string>();
     r.object = j.at("object").get<std::string>();
-    r.version = j.at("version").get<std::uint32_t>();
-    r.mesh.node_ids = j.at("node_ids").get<std::vector<std::int64_t>>();
+    r.version = integer<std::uint32_t>(j.at("version"), "version");
+    r.mesh.node_ids = integers<std::int64_t>(j.at("node_ids"), "node_ids");
     r.mesh.rest_positions = read_doubles(j.at("rest_positions"));
-    r.mesh.tets = j.at("tets").get<std::vector<std::int32_t>>();
+    r.mesh.tets = integers<std::int32_t>(j.at("tets"), "tets");
     const json& p = j.at("params");
     r.params.stiffness = p.at("stiffness").get<double>();
     r.params.damping = p.at("damping").get<double>();
@@ -179,8 +217,8 @@ Record decode(const json& j) {
     r.t = t;
     r.scene = j.at("scene").get<std::string>();
     r.object = j.at("object").get<std::string>();
-    r.frame = j.at("frame").get<std::int64_t>();
-    r.topology_version = j.at("topology_version").get<std::uint32_t>();
+    r.frame = integer<std::int64_t>(j.at("frame"), "frame");
+    r.topology_version = integer<std::uint32_t>(j.at("topology_version"), "topology_version");
     r.positions = read_doubles(j.at("positions"));
     r.velocities = read_doubles(j.at("velocities"));
     return r;
@@ -190,10 +228,10 @@ Record decode(const json& j) {
     r.t = t;
     r.scene = j.at("scene").get<std::string>();
     r.object = j.at("object").get<std::string>();
-    r.frame = j.at("frame").get<std::int64_t>();
-    r.topology_version = j.at("topology_version").get<std::uint32_t>();
-    r.status = j.at("status").get<std::int32_t>();
-    r.nodes = j.at("nodes").get<std::vector<std::int32_t>>();
+    r.frame = integer<std::int64_t>(j.at("frame"), "frame");
+    r.topology_version = integer<std::uint32_t>(j.at("topology_version"), "topology_version");
+    r.status = integer<std::int32_t>(j.at("status"), "status");
+    r.nodes = integers<std::int32_t>(j.at("nodes"), "nodes");
     r.forces = read_doubles(j.at("forces"));
     r.stiffness = read_doubles(j.at("stiffness"));
     return r;
@@ -203,14 +241,14 @@ Record decode(const json& j) {
     r.t = t;
     auto& e = r.event;
     e.service_id = j.at("service_id").get<std::string>();
-    e.sequence_number = j.at("sequence_number").get<std::uint64_t>();
-    e.state = static_cast<client::StatusEvent::State>(j.at("state").get<int>());
-    e.kind = static_cast<client::StatusEvent::Kind>(j.at("kind").get<int>());
-    e.code = j.at("code").get<std::int32_t>();
+    e.sequence_number = integer<std::uint64_t>(j.at("sequence_number"), "sequence_number");
+    e.state = static_cast<client::StatusEvent::State>(integer<int>(j.at("state"), "state"));
+    e.kind = static_cast<client::StatusEvent::Kind>(integer<int>(j.at("kind"), "kind"));
+    e.code = integer<std::int32_t>(j.at("code"), "code");
     e.scene = j.at("scene").get<std::string>();
     e.object = j.at("object").get<std::string>();
-    e.topology_version = j.at("topology_version").get<std::uint32_t>();
-    e.frame = j.at("frame").get<std::int64_t>();
+    e.topology_version = integer<std::uint32_t>(j.at("topology_version"), "topology_version");
+    e.frame = integer<std::int64_t>(j.at("frame"), "frame");
     e.message = j.at("message").get<std::string>();
     e.topology_timestamp = j.value("topology_timestamp", std::int64_t{0});
     return r;
