@@ -53,7 +53,7 @@ test: build
 test-asan: deps
 	cmake --preset asan-ubsan
 	cmake --build --preset asan-ubsan -j $(JOBS)
-	ctest --preset asan-ubsan -j $$(( $(JOBS) + 1 ))
+	ctest --preset asan-ubsan -j $(JOBS)
 
 # Only the daemon's tests (tests/service, tests/integration) and the programs they run.
 test-tsan: deps
