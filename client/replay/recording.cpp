@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
+#include <utility>
 
 namespace tc::replay {
 namespace {
@@ -36,24 +36,13 @@ json doubles(const std::vector<double>& values) {
 /// by the recording fuzzer: 1.2e21 as a node index).
 template <typename T>
 T integer(const json& v, const char* what) {
-  if (v.is_number_unsigned()) {
-    const auto u = v.get<std::uint64_t>();
-    if (u <= static_cast<std::uint64_t>(std::numeric_limits<T>::max())) return static_cast<T>(u);
-  } else if (v.is_number_integer()) {
-    const auto i = v.get<std::int64_t>();
-    if constexpr (std::is_signed_v<T>) {
-      if (i >= static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
-          (sizeof(T) >= sizeof(std::int64_t) ||
-           i <= static_cast<std::int64_t>(std::numeric_limits<T>::max())))
-        return static_cast<T>(i);
-    } else if (i >= 0 && static_cast<std::uint64_t>(i) <=
-                             static_cast<std::uint64_t>(std::numeric_limits<T>::max())) {
-      return static_cast<T>(i);
-    }
-  } else {
+  if (!v.is_number_integer())
     throw std::invalid_argument(std::string("'") + what + "' must be an integer");
-  }
-  throw std::invalid_argument(std::string("'") + what + "' is out of range");
+  const bool in_range = v.is_number_unsigned() ? std::in_range<T>(v.get<std::uint64_t>())
+                                               : std::in_range<T>(v.get<std::int64_t>());
+  if (!in_range) throw std::invalid_argument(std::string("'") + what + "' is out of range");
+  return v.is_number_unsigned() ? static_cast<T>(v.get<std::uint64_t>())
+                                : static_cast<T>(v.get<std::int64_t>());
 }
 
 template <typename T>

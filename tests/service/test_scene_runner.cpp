@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "outbox_recorder.hpp"
 #include "test_meshes.hpp"
@@ -29,6 +30,12 @@ class SceneRunnerTest : public ::testing::Test {
   void add(const std::string& object, std::uint32_t version, TetMesh mesh) {
     SceneJob job = TopologyJob{object, version, std::move(mesh), ObjectParams{}, Clock::now()};
     runner_.run(job);
+  }
+  /// Registers a and b (version 1, b overlapping a by 0.2) and returns their rest meshes.
+  std::pair<TetMesh, TetMesh> add_overlapping_pair() {
+    add("a", 1, box_at(0.0));
+    add("b", 1, box_at(0.8));
+    return {box_at(0.0), box_at(0.8)};
   }
   void frame(std::int64_t f, std::vector<FrameObjectInput> states,
              std::vector<RejectedState> rejected = {}) {
@@ -120,10 +127,7 @@ TEST_F(SceneRunnerTest, RejectedStatesAreAnsweredWithTheirCode) {
 // ContactForces.state_frame says which state each object's forces come from, so a client
 // can tell the answer to its frame from one computed before its state arrived.
 TEST_F(SceneRunnerTest, AnswersNameTheStateTheyWereComputedFrom) {
-  add("a", 1, box_at(0.0));
-  add("b", 1, box_at(0.8));
-  const TetMesh a = box_at(0.0);
-  const TetMesh b = box_at(0.8);
+  const auto [a, b] = add_overlapping_pair();
   frame(4, {FrameObjectInput{"a", 1, a.positions}});  // b's state not in (yet)
   auto answers = outbox_.forces_of("s", 4);
   ASSERT_EQ(answers.size(), 2u);
@@ -151,10 +155,7 @@ TEST_F(SceneRunnerTest, AnswersNameTheStateTheyWereComputedFrom) {
 // without b's late state and again with it gives two sets a client must not mix (the
 // first set's answer for a was computed with b at rest).
 TEST_F(SceneRunnerTest, AnswersOfOneComputationShareAnId) {
-  add("a", 1, box_at(0.0));
-  add("b", 1, box_at(0.8));
-  const TetMesh a = box_at(0.0);
-  const TetMesh b = box_at(0.8);
+  const auto [a, b] = add_overlapping_pair();
   frame(4, {FrameObjectInput{"a", 1, a.positions}});  // b's state not in (yet)
   frame(4, {FrameObjectInput{"b", 1, b.positions}});  // b's late state: frame 4 again
   frame(5, {FrameObjectInput{"a", 1, a.positions}},
@@ -206,10 +207,7 @@ TEST_F(SceneRunnerTest, CutAndRemove) {
 }
 
 TEST_F(SceneRunnerTest, SameInputSameBits) {
-  add("a", 1, box_at(0.0));
-  add("b", 1, box_at(0.8));
-  const TetMesh a = box_at(0.0);
-  const TetMesh b = box_at(0.8);
+  const auto [a, b] = add_overlapping_pair();
   for (int f = 0; f < 2; ++f)
     frame(f, {FrameObjectInput{"a", 1, a.positions}, FrameObjectInput{"b", 1, b.positions}});
   const auto f0 = outbox_.forces_of("s", 0);
