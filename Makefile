@@ -10,7 +10,7 @@ DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspd
 DEB_PACKAGES += openssl
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps build test test-asan test-tsan fuzz fuzz-short fuzz-build demo format \
+.PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
   format-check bench clean help reliability load soak
 # Seconds each fuzz target runs in `make fuzz` / `make fuzz-short` (CI).
 FUZZ_SECONDS ?= 60
@@ -24,6 +24,7 @@ help:
 	@echo "make test        deps + build + all tests (ctest)"
 	@echo "make test-asan   every test under ASan+UBSan (build/asan-ubsan)"
 	@echo "make test-tsan   the daemon's tests under TSan (build/tsan)"
+	@echo "make test-tsan-unit  the daemon's unit tests only under TSan (CI)"
 	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/asan-ubsan)"
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job on embedded defaults"
@@ -60,6 +61,13 @@ test-tsan: deps
 	cmake --preset tsan
 	cmake --build --preset tsan -j $(JOBS)
 	ctest --preset tsan -j $(JOBS)
+
+# CI's TSan stage: the daemon's unit tests (tests/service, real TBB threads, no DDS) in the
+# same tree; `make test-tsan` adds the integration tests (real daemon processes over DDS).
+test-tsan-unit: deps
+	cmake --preset tsan
+	cmake --build build/tsan -j $(JOBS) --target tc_daemon_unit_tests
+	ctest --preset tsan -j $(JOBS) -R '^service\.'
 
 fuzz-build: deps
 	cmake --preset asan-ubsan
