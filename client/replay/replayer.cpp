@@ -7,6 +7,7 @@
 #include <memory>
 #include <set>
 #include <thread>
+#include <vector>
 
 namespace tc::replay {
 namespace {
@@ -118,6 +119,24 @@ Expected<ReplayReport> replay(const std::vector<Record>& records, const ReplayOp
     registered[{t.scene, t.object}] = t.version;
   };
 
+  // True when the next recorded state of t's object (from event `from` on) still uses an
+  // older version than t: the recorder stamps each topic as it reads it, so a new
+  // version can be recorded just before the last states of the previous one; sending it
+  // at its recorded time would make those states stale. Such a topology waits until
+  // the states before it are sent (it is sent at the latest with the first state that
+  // uses it, below).
+  const auto older_states_pending = [&](std::size_t from, const TopologyRecord& t) {
+    for (std::size_t k = from; k < events.size(); ++k) {
+      if (events[k].topology != nullptr || events[k].remove != nullptr) continue;
+      const Step& st = steps[events[k].step];
+      if (st.scene != t.scene) continue;
+      const auto it = st.states.find(t.object);
+      if (it != st.states.end()) return it->second->topology_version < t.version;
+    }
+    return false;
+  };
+  std::vector<const TopologyRecord*> waiting;
+
   ReplayReport report;
   std::vector<double> latencies;
   try {
@@ -125,9 +144,18 @@ Expected<ReplayReport> replay(const std::vector<Record>& records, const ReplayOp
     const auto start = Clock::now();
     const double t0 = events.empty() ? 0.0 : events.front().t;
     std::size_t index = 0;
-    for (const Event& ev : events) {
+    for (std::size_t e = 0; e < events.size(); ++e) {
+      const Event& ev = events[e];
+      std::erase_if(waiting, [&](const TopologyRecord* t) {
+        if (older_states_pending(e, *t)) return false;
+        apply_topology(*t);
+        return true;
+      });
       if (ev.topology != nullptr) {
-        apply_topology(*ev.topology);
+        if (older_states_pending(e + 1, *ev.topology))
+          waiting.push_back(ev.topology);
+        else
+          apply_topology(*ev.topology);
         continue;
       }
       if (ev.remove != nullptr) {
@@ -233,6 +261,7 @@ Expected<ReplayReport> replay(const std::vector<Record>& records, const ReplayOp
       }
       if (mismatch) ++report.mismatched_frames;
     }
+    for (const TopologyRecord* t : waiting) apply_topology(*t);
   } catch (const client::ClientError& e) {
     return Error{ErrorCode::kIo, e.what()};
   } catch (const std::invalid_argument& e) {
