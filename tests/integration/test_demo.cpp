@@ -51,7 +51,14 @@ TEST(DemoTest, TorusOnBoxWritesOutputsAndASaneSummary) {
   // Every frame's statistics came over the FrameStats topic.
   EXPECT_EQ(s["frame_stats_received"].get<int>(), frames);
   EXPECT_EQ(s["rejected_states"].get<int>(), 0);
-  EXPECT_EQ(s["dropped_frames"].get<int>(), 0);
+  // Lock-step: nothing is superseded. Under a sanitizer (TSan: 5-15x slower) a frame can
+  // take longer than the client's 0.5 s resend interval; each re-sent copy of the frame
+  // is queued behind the one being computed, and a third copy drops the oldest queued
+  // one (max_queued_frames 2), as designed. Seen once in 160 frames under TSan.
+  if (test::kSanitized)
+    EXPECT_LE(s["dropped_frames"].get<int>(), 5);
+  else
+    EXPECT_EQ(s["dropped_frames"].get<int>(), 0);
   // The torus reached the box and stayed out of it.
   EXPECT_GT(s["max_contacts"].get<int>(), 0);
   EXPECT_GT(s["service_max_depth_m"].get<double>(), 0.0);
