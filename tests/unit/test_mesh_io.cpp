@@ -3,6 +3,7 @@
 // writers on round trips, and a seeded sweep of truncated and corrupted files.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
@@ -778,7 +779,9 @@ class VtuTest : public ::testing::Test {
     EXPECT_FALSE(st.ok());
     return st.ok() ? Error{ErrorCode::kIo, "(no error)"} : st.error();
   }
-  std::filesystem::path path_ = std::filesystem::temp_directory_path() / "tc_test_mesh_io.vtu";
+  // One file per process: ctest runs the tests of this fixture in parallel processes.
+  std::filesystem::path path_ = std::filesystem::temp_directory_path() /
+                                ("tc_test_mesh_io_" + std::to_string(::getpid()) + ".vtu");
 };
 
 TEST_F(VtuTest, RoundTripOfPointsCellsAndFields) {
