@@ -97,6 +97,13 @@ class ReplayTest : public ::testing::Test {
     EXPECT_EQ(recorder.stop(SIGINT), 0);
   }
 
+  /// `tetcollide replay FILE --rate 0 --check --json` against this test's daemon.
+  RunResult replay_check(const std::filesystem::path& file) const {
+    return run_program({program_from_env("TC_CLI"), "replay", file.string(), "--domain",
+                        std::to_string(domain_), "--rate", "0", "--check", "--json"},
+                       60s);
+  }
+
   std::uint32_t domain_ = private_domain();
   std::filesystem::path dir_;
   std::unique_ptr<DaemonProcess> daemon_;
@@ -113,9 +120,7 @@ TEST_F(ReplayTest, RecordThenReplayIsBitIdentical) {
     std::string header;
     std::getline(in, header);
     EXPECT_EQ(header, R"({"format":"tetcollide-recording","version":1})");
-    const auto r = run_program({program_from_env("TC_CLI"), "replay", file.string(), "--domain",
-                                std::to_string(domain_), "--rate", "0", "--check", "--json"},
-                               60s);
+    const auto r = replay_check(file);
     ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j.size(), 5u);
@@ -149,9 +154,7 @@ TEST_F(ReplayTest, CheckDetectsDifferentForces) {
   ASSERT_TRUE(w.open(spoiled, domain_));
   for (const auto& r : *records) ASSERT_TRUE(w.write(r));
   ASSERT_TRUE(w.close());
-  const auto r = run_program({program_from_env("TC_CLI"), "replay", spoiled.string(), "--domain",
-                              std::to_string(domain_), "--rate", "0", "--check", "--json"},
-                             60s);
+  const auto r = replay_check(spoiled);
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["mismatched_frames"].get<int>(), 1);
@@ -166,9 +169,7 @@ TEST_F(ReplayTest, CommittedRecordingsReplayBitForBit) {
   ASSERT_EQ(files.size(), scenario_names().size()) << "recordings in " << recordings_dir();
   for (const auto& file : files) {
     SCOPED_TRACE(file.string());
-    const auto r = run_program({program_from_env("TC_CLI"), "replay", file.string(), "--domain",
-                                std::to_string(domain_), "--rate", "0", "--check", "--json"},
-                               60s);
+    const auto r = replay_check(file);
     ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_GT(j["frames"].get<int>(), 0);
@@ -185,9 +186,7 @@ TEST_F(ReplayTest, CommittedRecordingsReplayBitForBit) {
 TEST_F(ReplayTest, ATopologyRecordedBeforeTheLastStatesOfItsPredecessorWaitsForThem) {
   const auto file = recordings_dir() / "reordered" / "cut_topology_early.jsonl";
   ASSERT_TRUE(std::filesystem::exists(file)) << file;
-  const auto r = run_program({program_from_env("TC_CLI"), "replay", file.string(), "--domain",
-                              std::to_string(domain_), "--rate", "0", "--check", "--json"},
-                             60s);
+  const auto r = replay_check(file);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["frames"].get<int>(), 30);
