@@ -1,9 +1,14 @@
 // `tetcollide respond FILE_A FILE_B [--move-b DX DY DZ] --response point|segment|auto
-//  [--depth cpfm|cffm|exact] [--stiffness K] [--forces OUT.csv] [--json]`:
+//  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--stiffness K]
+//  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
-// meshes, B optionally translated.
+// meshes, B optionally translated. --contacts lists the point contacts with the depth and
+// direction their forces used; --exact-check compares those depths with the exact
+// distance of each node to the other object's boundary (docs/RESPONSE.md).
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 
 #include "cli_common.hpp"
@@ -23,8 +28,26 @@ struct RespondArgs {
   double stiffness = 1e4;
   int repeat = 20;
   std::string forces_csv;
+  std::string contacts_csv;
+  std::string evaluation = "nearest-face";
+  bool exact_check = false;
   bool json = false;
 };
+
+/// How the contact depths compare with the exact ones (--exact-check).
+struct DepthAudit {
+  std::size_t contacts = 0;
+  std::size_t within = 0;      ///< |depth - exact| <= 10% exact + 1e-3 bbox diagonal
+  std::size_t beyond_1_5 = 0;  ///< depth > 1.5 exact + tol, or < exact / 1.5 - tol
+  std::size_t zero = 0;        ///< depth 0 where exact > tol
+  double max_ratio = 0.0;      ///< max depth / exact over contacts with exact > tol
+  double min_ratio = 0.0;      ///< min of the same
+};
+
+double bbox_diagonal(const Positions& x) {
+  if (x.cols() == 0) return 0.0;
+  return (x.rowwise().maxCoeff() - x.rowwise().minCoeff()).norm();
+}
 
 int run_respond(const RespondArgs& args) {
   auto a = read_mesh(args.file_a);
@@ -45,6 +68,10 @@ int run_respond(const RespondArgs& args) {
                                          : DepthMethod::kCpfm;
   PipelineConfig config;
   config.broad_phase = args.broad;
+  config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
+  config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
+                                                       : DepthEvaluation::kNearestFace;
+  const double diag_a = bbox_diagonal(a->positions), diag_b = bbox_diagonal(b->positions);
   Pipeline pipeline(config);
   std::vector<FrameObjectInput> states(2);
   states[0].object = "a";
@@ -80,13 +107,49 @@ int run_respond(const RespondArgs& args) {
             << f.forces[i].x() << ',' << f.forces[i].y() << ',' << f.forces[i].z() << '\n';
     }
   }
+  if (!args.contacts_csv.empty()) {
+    std::ofstream csv(args.contacts_csv);
+    if (!csv) return report_error("cannot write " + args.contacts_csv, kExitFailure);
+    csv << "object,node_id,depth,nx,ny,nz\n";
+    csv.precision(17);
+    for (const FramePointContact& c : output.point_contacts) {
+      const auto& ids = c.object == "a" ? ids_a : ids_b;
+      csv << c.object << ',' << ids[static_cast<std::size_t>(c.node)] << ',' << c.depth << ','
+          << c.normal.x() << ',' << c.normal.y() << ',' << c.normal.z() << '\n';
+    }
+  }
+  DepthAudit audit;
+  if (args.exact_check) {
+    auto exact = pipeline.exact_depths(output.point_contacts);
+    if (!exact) return report_error(exact.error());
+    audit.min_ratio = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < exact->size(); ++i) {
+      const FramePointContact& c = output.point_contacts[i];
+      const double e = (*exact)[i], d = c.depth;
+      const double tol = 1e-3 * (c.penetrated == "a" ? diag_a : diag_b);
+      ++audit.contacts;
+      audit.within += std::abs(d - e) <= 0.1 * e + tol;
+      audit.beyond_1_5 += d > 1.5 * e + tol || d < e / 1.5 - tol;
+      audit.zero += d == 0.0 && e > tol;
+      if (e > tol) {
+        audit.max_ratio = std::max(audit.max_ratio, d / e);
+        audit.min_ratio = std::min(audit.min_ratio, d / e);
+      }
+    }
+    if (!std::isfinite(audit.min_ratio)) audit.min_ratio = 0.0;
+  }
   const double time_ms = median(times);
   if (args.json) {
-    print_json({{"contacts", output.stats.contacts},
-                {"total_force_a", {total_a.x(), total_a.y(), total_a.z()}},
-                {"total_force_b", {total_b.x(), total_b.y(), total_b.z()}},
-                {"max_depth", output.stats.max_depth},
-                {"time_ms", time_ms}});
+    nlohmann::json j = {{"contacts", output.stats.contacts},
+                        {"total_force_a", {total_a.x(), total_a.y(), total_a.z()}},
+                        {"total_force_b", {total_b.x(), total_b.y(), total_b.z()}},
+                        {"max_depth", output.stats.max_depth},
+                        {"time_ms", time_ms}};
+    if (args.exact_check)
+      j["exact_check"] = {{"point_contacts", audit.contacts}, {"within_10_percent", audit.within},
+                          {"beyond_1_5x", audit.beyond_1_5},  {"zero_depth", audit.zero},
+                          {"max_ratio", audit.max_ratio},     {"min_ratio", audit.min_ratio}};
+    print_json(j);
     return kExitOk;
   }
   const FrameStats& s = output.stats;
@@ -101,6 +164,15 @@ int run_respond(const RespondArgs& args) {
       "time per frame:    %.3f ms median of %zu (broad %.3f, narrow %.3f, depth %.3f, "
       "response %.3f in the last)\n",
       time_ms, times.size(), s.broad_ms, s.narrow_ms, s.depth_ms, s.response_ms);
+  if (args.exact_check) {
+    const double share = audit.contacts ? 100.0 * static_cast<double>(audit.within) /
+                                              static_cast<double>(audit.contacts)
+                                        : 100.0;
+    std::printf(
+        "exact check:       %zu point contacts, %.2f%% within 10%% (+1e-3 diagonal), %zu beyond "
+        "1.5x, %zu at zero depth; depth/exact %.4g..%.4g\n",
+        audit.contacts, share, audit.beyond_1_5, audit.zero, audit.min_ratio, audit.max_ratio);
+  }
   return kExitOk;
 }
 
@@ -125,6 +197,13 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--repeat", args->repeat, "Frames to time (median reported)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--forces", args->forces_csv, "Write object,node_id,fx,fy,fz CSV");
+  cmd->add_option("--contacts", args->contacts_csv,
+                  "Write the point contacts as object,node_id,depth,nx,ny,nz CSV");
+  cmd->add_option("--evaluation", args->evaluation,
+                  "Contact depth: nearest-face (default) or interpolate (the paper's 5.1)")
+      ->check(CLI::IsMember({"nearest-face", "interpolate"}));
+  cmd->add_flag("--exact-check", args->exact_check,
+                "Compare each point contact's depth with the exact distance to the boundary");
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->callback([&ctx, args] { ctx.exit_code = run_respond(*args); });
 }

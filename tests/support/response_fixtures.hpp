@@ -9,10 +9,13 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <span>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
 #include "core/detect/contacts.hpp"
+#include "core/distance/depth_solver.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
@@ -25,6 +28,7 @@ struct TestObject {
   TetMesh mesh;
   Topology topology;
   std::vector<double> depth;
+  std::vector<Index> anchor;  ///< empty unless compute_depth_map() ran
   std::optional<Positions> velocities;
 
   explicit TestObject(TetMesh m) : mesh(std::move(m)) {
@@ -38,7 +42,16 @@ struct TestObject {
     o.topology = &topology;
     o.depth = depth;
     o.velocities = velocities ? &*velocities : nullptr;
+    o.anchor = anchor;
     return o;
+  }
+  /// Depths and anchors from a full depth map of the current positions.
+  void compute_depth_map(DepthMethod method = DepthMethod::kCpfm) {
+    DepthSolver solver(std::span<const Tet>(mesh.tets), topology, {.method = method});
+    const Status st = solver.compute(mesh.positions);
+    if (!st) throw std::runtime_error(st.error().message);
+    depth.assign(solver.depth().begin(), solver.depth().end());
+    anchor.assign(solver.anchor().begin(), solver.anchor().end());
   }
   template <typename F>
   void set_depth(F&& f) {

@@ -17,6 +17,14 @@
 namespace tc {
 namespace {
 
+/// Most tests here check the paper's interpolation formulas on depth fields written by
+/// hand; the nearest-face evaluation (the default) ignores those values.
+ResponseOptions paper() {
+  ResponseOptions o;
+  o.evaluation = DepthEvaluation::kInterpolate;
+  return o;
+}
+
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using test::TestObject;
@@ -123,7 +131,7 @@ TEST(PointContact, KnownAnswer) {
                          {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)});
   const Vec3 v(-0.2, 0.1, -0.3);
   s.y.set_depth([&](const Vec3& x) { return 0.5 + v.dot(x); });
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.stiffness = 1e3;
   for (const ForceMeasure m : {ForceMeasure::kEdgeLength, ForceMeasure::kUnit}) {
     o.measure = m;
@@ -158,7 +166,7 @@ TEST_P(ContactBalance, ZeroNetForceAndMoment) {
   int active = 0;
   for (int trial = 0; trial < 100; ++trial) {
     const RandomCase rc = random_case(rng, segment, scale, Vec3::Constant(offset));
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.stiffness = 1e5;
     const ContactResult r = segment ? eval_segment(rc.s, o) : eval_point(rc.s, o);
     if (!r.active) continue;
@@ -191,7 +199,7 @@ TEST(SegmentContact, TransferIsTheShapeFunctionIntegralAndBalancesMoments) {
   int asymmetric = 0;
   for (int trial = 0; trial < 200; ++trial) {
     const RandomCase rc = random_case(rng, true);
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.stiffness = 1e4;
     const Vec3 a = rc.s.x.mesh.positions.col(0), b = rc.s.x.mesh.positions.col(1);
     const auto tp = target_points(rc.s);
@@ -275,7 +283,7 @@ TEST(Stiffness, ExactBlocksMatchFiniteDifferences) {
     for (const bool segment : {false, true})
       for (const ForceMeasure m : {ForceMeasure::kEdgeLength, ForceMeasure::kUnit}) {
         const RandomCase rc = random_case(rng, segment);
-        ResponseOptions o;
+        ResponseOptions o = paper();
         o.stiffness = 1e3;
         o.measure = m;
         o.stiffness_mode = StiffnessMode::kExact;
@@ -293,7 +301,7 @@ TEST(Stiffness, ExactSegmentBlocksWithOneEndInside) {
   Single s = make_single({Vec3(0.2, 0.2, 0.2), Vec3(1.5, 0.9, 0.7), Vec3(0, 3, 0), Vec3(0, 0, 3)},
                          {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)});
   s.y.set_depth([](const Vec3& x) { return 0.6 - 0.3 * x.x() - 0.2 * x.y() - 0.9 * x.z(); });
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.stiffness_mode = StiffnessMode::kExact;
   const auto clip =
       test::clip_segment(target_points(s), s.x.mesh.positions.col(0), s.x.mesh.positions.col(1));
@@ -308,7 +316,7 @@ TEST(Stiffness, LumpedBlocksAreSymmetricNegativeAndRowSumsOfTheDominantTerm) {
   for (int trial = 0; trial < 50; ++trial)
     for (const bool segment : {false, true}) {
       const RandomCase rc = random_case(rng, segment);
-      ResponseOptions o;
+      ResponseOptions o = paper();
       o.stiffness = 2e3;
       o.stiffness_mode = StiffnessMode::kLumped;
       const ContactResult r = segment ? eval_segment(rc.s, o) : eval_point(rc.s, o);
@@ -330,7 +338,7 @@ TEST(Stiffness, LumpedBlocksAreSymmetricNegativeAndRowSumsOfTheDominantTerm) {
 TEST(Stiffness, LumpedEqualsExactForThePointOfAUnitSpring) {
   std::mt19937 rng(23);
   const RandomCase rc = random_case(rng, false);
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.measure = ForceMeasure::kUnit;
   o.stiffness_mode = StiffnessMode::kLumped;
   const ContactResult lumped = eval_point(rc.s, o);
@@ -357,7 +365,7 @@ TEST(Stiffness, LumpedIsNeverSofterThanTheCoupledTargetStiffness) {
     Single s = make_single({p, p + Vec3(2, 0, 0), p + Vec3(0, 2, 0), p + Vec3(0, 0, 2)}, target);
     const Vec3 v = random_unit(rng);
     s.y.set_depth([&](const Vec3& x) { return 1e-4 + v.dot(x - p); });
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.stiffness_mode = StiffnessMode::kLumped;
     const ContactResult r = eval_point(s, o);
     ASSERT_TRUE(r.active);
@@ -384,9 +392,10 @@ TEST(Stiffness, LumpedIsNeverSofterThanTheCoupledTargetStiffness) {
 
 // ---- Fallbacks --------------------------------------------------------------------
 
-TEST(Fallback, FourBoundaryNodesUseTheNearestOwnFace) {
+TEST(Fallback, FourBoundaryNodesUseTheNearestFace) {
   // Paper 6.2: a tet with its four nodes on the boundary has depth 0 everywhere; the
-  // nearest boundary face of the tet gives the direction and the depth.
+  // nearest boundary face gives the direction and the depth, by default and as the
+  // interpolation's fallback alike.
   const Vec3 p(0.3, 0.25, 0.05);
   const Single s = make_single({p, Vec3(2, 0, 0), Vec3(0, 2, 0), Vec3(0, 0, 2)},
                                {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)});
@@ -394,9 +403,13 @@ TEST(Fallback, FourBoundaryNodesUseTheNearestOwnFace) {
   o.measure = ForceMeasure::kUnit;
   o.stiffness = 100.0;
   o.stiffness_mode = StiffnessMode::kExact;
-  const ContactResult r = eval_point(s, o);
+  ContactResult r = eval_point(s, o);
   ASSERT_TRUE(r.active);
-  EXPECT_EQ(r.fallback, Fallback::kOwnFace);
+  EXPECT_EQ(r.fallback, Fallback::kNone);
+  o.evaluation = DepthEvaluation::kInterpolate;
+  r = eval_point(s, o);
+  ASSERT_TRUE(r.active);
+  EXPECT_EQ(r.fallback, Fallback::kNearestFace);
   EXPECT_NEAR((r.normal - Vec3(0, 0, -1)).norm(), 0.0, 1e-15);
   EXPECT_NEAR(r.depth, 0.05, 1e-15);
   EXPECT_NEAR((r.force[0] - Vec3(0, 0, -5.0)).norm(), 0.0, 1e-12);
@@ -409,15 +422,17 @@ TEST(Fallback, FourBoundaryNodesUseTheNearestOwnFace) {
                   {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)});
   const ContactResult rs = eval_segment(seg, o);
   ASSERT_TRUE(rs.active);
-  EXPECT_EQ(rs.fallback, Fallback::kOwnFace);
+  EXPECT_EQ(rs.fallback, Fallback::kNearestFace);
   EXPECT_NEAR((rs.normal - Vec3(-1, 0, 0)).norm(), 0.0, 1e-15);
   EXPECT_NEAR(rs.depth, 0.02, 1e-15);
 }
 
-TEST(Fallback, EqualDepthsInAnInteriorTetUseTheNearestRingFace) {
-  // A box thin in z: the centre cell's tets have no boundary face; with equal depths the
-  // nearest boundary triangle among the tets sharing a node is on z = 0.
+TEST(Fallback, EqualDepthsInAnInteriorTetUseTheNearestFaceOfTheAnchors) {
+  // A box thin in z: the centre cell's tets have no boundary face and no boundary node;
+  // with equal depths the interpolation has no gradient, and the nearest face around
+  // the nodes' anchors (the depth map's closest boundary nodes) is on z = 0 or z = 1.2.
   TestObject y(test::structured_box(3, 3, 3, {0, 0, 0}, {3, 3, 1.2}));
+  y.compute_depth_map();
   std::fill(y.depth.begin(), y.depth.end(), 0.4);
   const Index centre_tet = 6 * 13;  // first tet of cell (1, 1, 1)
   for (int j = 0; j < 4; ++j) ASSERT_NE(y.topology.tet_neighbors[centre_tet][j], -1);
@@ -426,12 +441,25 @@ TEST(Fallback, EqualDepthsInAnInteriorTetUseTheNearestRingFace) {
   TestObject x(test::mesh_from({p, p + Vec3(5, 0, 0), p + Vec3(0, 5, 0), p + Vec3(0, 0, 5)},
                                {{0, 1, 2, 3}}));
   ResponseOptions o;
-  const ContactResult r = point_contact(
+  o.evaluation = DepthEvaluation::kInterpolate;
+  ContactResult r = point_contact(
       x.view(), y.view(), {0, centre_tet, Eigen::Vector4d::Constant(0.25)}, o, Vec3::Zero());
   ASSERT_TRUE(r.active);
-  EXPECT_EQ(r.fallback, Fallback::kRingFace);
-  EXPECT_NEAR((r.normal - Vec3(0, 0, -1)).norm(), 0.0, 1e-15);
-  EXPECT_NEAR(r.depth, std::max(0.4, p.z()), 1e-15);
+  EXPECT_EQ(r.fallback, Fallback::kNearestFace);
+  const bool low = p.z() < 1.2 - p.z();
+  EXPECT_NEAR((r.normal - Vec3(0, 0, low ? -1 : 1)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(r.depth, std::min(p.z(), 1.2 - p.z()), 1e-12);
+  // The default evaluation reaches the same face directly; without anchors an interior
+  // tet has no candidate face and falls back to the (gradient-less) interpolation.
+  o.evaluation = DepthEvaluation::kNearestFace;
+  r = point_contact(x.view(), y.view(), {0, centre_tet, Eigen::Vector4d::Constant(0.25)}, o,
+                    Vec3::Zero());
+  EXPECT_EQ(r.fallback, Fallback::kNone);
+  EXPECT_NEAR(r.depth, std::min(p.z(), 1.2 - p.z()), 1e-12);
+  y.anchor.clear();
+  r = point_contact(x.view(), y.view(), {0, centre_tet, Eigen::Vector4d::Constant(0.25)}, o,
+                    Vec3::Zero());
+  EXPECT_EQ(r.fallback, Fallback::kAxis);
 }
 
 TEST(Fallback, WithoutTopologyThePairDirectionThenTheAxis) {
@@ -457,7 +485,7 @@ TEST(Damping, ApproachStiffensSeparationSoftensNeverPulls) {
   for (const bool segment : {false, true}) {
     std::mt19937 rng(3);
     RandomCase rc = random_case(rng, segment);
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.stiffness = 1e3;
     const ContactResult still = segment ? eval_segment(rc.s, o) : eval_point(rc.s, o);
     ASSERT_TRUE(still.active);
@@ -488,7 +516,7 @@ TEST(Damping, ApproachStiffensSeparationSoftensNeverPulls) {
 TEST(Options, PushPointOnlyLeavesTheTargetAlone) {
   std::mt19937 rng(8);
   const RandomCase rc = random_case(rng, false);
-  ResponseOptions o;
+  ResponseOptions o = paper();
   const ContactResult both = eval_point(rc.s, o);
   o.push_point_only = true;
   o.stiffness_mode = StiffnessMode::kLumped;
@@ -544,7 +572,7 @@ TEST_P(Extreme, FiniteAndBounded) {
   if (ec.shape == Shape::kEqualDepths) d.setConstant(0.3 * ec.scale);
   if (ec.shape == Shape::kZeroDepths) d.setZero();
   for (int k = 0; k < 4; ++k) s.y.depth[k] = d[k];
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.stiffness = ec.stiffness;
   o.stiffness_mode = ec.mode;
   const ContactResult r =
@@ -574,6 +602,24 @@ TEST_P(Extreme, FiniteAndBounded) {
                 ec.stiffness * weight * o.max_gradient * (1 + 1e-9) + 1e-300);
     }
   }
+  // The default nearest-face evaluation on the same lone tet: finite, never deeper than
+  // the tet, balanced. (It may be inactive: a flat or needle tet has no inside.)
+  o.evaluation = DepthEvaluation::kNearestFace;
+  const ContactResult nf =
+      ec.segment ? segment_contact(s.x.view(), s.y.view(), {0, 0, 0.45, 0.55}, o, Vec3::Zero())
+                 : point_contact(s.x.view(), s.y.view(), {0, 0, beta}, o, Vec3::Zero());
+  EXPECT_FALSE(nf.skipped);
+  EXPECT_TRUE(nf.normal.allFinite());
+  EXPECT_NEAR(nf.normal.norm(), 1.0, 1e-12);
+  EXPECT_LE(nf.depth, diameter * (1 + 1e-9));
+  Vec3 nf_total = Vec3::Zero();
+  for (int i = 0; i < entries(nf); ++i) {
+    EXPECT_TRUE(nf.force[i].allFinite()) << i;
+    EXPECT_TRUE(nf.stiffness[i].allFinite()) << i;
+    EXPECT_LE(nf.force[i].norm(), ec.stiffness * weight * diameter * (1 + 1e-9)) << i;
+    nf_total += nf.force[i];
+  }
+  EXPECT_LE(nf_total.norm(), 1e-12 * ec.stiffness * weight * diameter + 1e-300);
 }
 
 std::vector<ExtremeCase> extreme_cases() {
@@ -595,7 +641,7 @@ INSTANTIATE_TEST_SUITE_P(DegenerateShapesScalesStiffnesses, Extreme,
 TEST(Extreme, NonFiniteInputIsSkipped) {
   std::mt19937 rng(2);
   RandomCase rc = random_case(rng, false);
-  ResponseOptions o;
+  ResponseOptions o = paper();
   rc.s.y.depth[2] = std::nan("");
   EXPECT_TRUE(eval_point(rc.s, o).skipped);
   rc.s.y.depth[2] = 0.1;

@@ -19,6 +19,14 @@
 namespace tc {
 namespace {
 
+/// The tests of the paper's formulas use depth fields written by hand (half-spaces,
+/// linear fields), which only the interpolating evaluation reads.
+ResponseOptions paper() {
+  ResponseOptions o;
+  o.evaluation = DepthEvaluation::kInterpolate;
+  return o;
+}
+
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using test::TestObject;
@@ -77,7 +85,7 @@ void expect_pair_balanced(const PairResponse& r) {
 class TwoBoxes : public ::testing::TestWithParam<ResponseKind> {};
 
 TEST_P(TwoBoxes, ForcesAlongTheAxisGrowingWithOverlapDepth) {
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = GetParam();
   o.stiffness = 1e4;
   double previous = 0.0;
@@ -101,7 +109,7 @@ TEST_P(TwoBoxes, ForcesAlongTheAxisGrowingWithOverlapDepth) {
 }
 
 TEST_P(TwoBoxes, SegmentForceGrowsWithTheOverlapArea) {
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = GetParam();
   // Same cell count, so more area means longer edges and more of B's nodes inside A.
   // The segment response integrates over the overlap and tracks the area; the point
@@ -122,7 +130,7 @@ TEST_P(TwoBoxes, SegmentForceGrowsWithTheOverlapArea) {
 TEST_P(TwoBoxes, ExactBoxDepthsStillPushAlongTheAxis) {
   // With the box distance, A's depth is poorly resolved near its side walls (one cell
   // of 0.14 m against 0.03 m of overlap): some reactions lean sideways, the total not.
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = GetParam();
   for (const double d : {0.03, 0.06, 0.09}) {
     const BoxPair p = box_pair(d, 0.21, 3, Depth::kBox);
@@ -140,7 +148,7 @@ INSTANTIATE_TEST_SUITE_P(PointAndSegment, TwoBoxes,
 TEST(TwoBoxes, ScaleAndOffsetInvariance) {
   // Force = k * depth * length: x -> s x + o scales every force by s^2.
   for (const ResponseKind kind : {ResponseKind::kPoint, ResponseKind::kSegment}) {
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.kind = kind;
     o.stiffness = 1e9;
     const BoxPair ref = box_pair(0.05, 0.21, 3, Depth::kBox);
@@ -191,7 +199,7 @@ TEST(Fig11, EdgeOnlyOverlapHasNoPointResponseAndASegmentResponse) {
   // from its top, A's upwards from its bottom.
   p.b.set_depth([](const Vec3& x) { return 1.0 - x.z(); });
   p.a.set_depth([](const Vec3& x) { return x.z() - 0.5; });
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = ResponseKind::kPoint;
   PairResponse r = respond(p.a, p.b, c, o);
   EXPECT_TRUE(r.a.nodes.empty());
@@ -212,13 +220,13 @@ TEST(Fig11, EdgeOnlyOverlapHasNoPointResponseAndASegmentResponse) {
   EXPECT_EQ(r.used_a_in_b, ResponseKind::kSegment);
   EXPECT_EQ(r.used_b_in_a, ResponseKind::kSegment);
 
-  // With the exact depth of a lone tet (0 at all four nodes, paper 6.2) the own-face
-  // fallback still separates them.
+  // With the exact depth of a lone tet (0 at all four nodes, paper 6.2) the nearest
+  // boundary face still separates them.
   std::fill(p.a.depth.begin(), p.a.depth.end(), 0.0);
   std::fill(p.b.depth.begin(), p.b.depth.end(), 0.0);
   r = respond(p.a, p.b, c, o);
   EXPECT_EQ(r.stats.segment_contacts, 2u);
-  EXPECT_EQ(r.stats.fallback_own_face, 2u);
+  EXPECT_EQ(r.stats.fallback_nearest_face, 2u);
   EXPECT_GT(total_force(r.a).norm(), 0.0);
   expect_pair_balanced(r);
 }
@@ -236,7 +244,7 @@ TEST(PointVsSegment, AgreeForAnObjectInsideALinearDepthField) {
   ASSERT_EQ(c.nodes_a_in_b.size(), 27u);
   c.nodes_b_in_a.clear();  // compare the A-in-B direction only
   c.edges_b_in_a.clear();
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = ResponseKind::kPoint;
   const PairResponse point = respond(a, b, c, o);
   o.kind = ResponseKind::kSegment;
@@ -291,7 +299,7 @@ TEST(DeepPenetration, ABoxWhollyInsideIsPushedTowardTheNearestFace) {
   const PairContacts c = test::brute_force_contacts(a, b);
   ASSERT_EQ(c.nodes_a_in_b.size(), 27u);
   for (const ResponseKind kind : {ResponseKind::kPoint, ResponseKind::kSegment}) {
-    ResponseOptions o;
+    ResponseOptions o = paper();
     o.kind = kind;
     const PairResponse r = respond(a, b, c, o);
     const Vec3 f = total_force(r.a);
@@ -311,7 +319,7 @@ TEST(DeepPenetration, EqualDepthsFarFromTheBoundaryFallBackToThePairDirection) {
   const PairContacts c = test::brute_force_contacts(a, b);
   ASSERT_EQ(c.nodes_a_in_b.size(), 8u);
   ASSERT_TRUE(c.nodes_b_in_a.empty());
-  ResponseOptions o;
+  ResponseOptions o = paper();
   o.kind = ResponseKind::kPoint;
   const PairResponse r = respond(a, b, c, o);
   EXPECT_EQ(r.stats.fallback_pair, 8u);

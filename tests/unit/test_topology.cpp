@@ -49,6 +49,25 @@ TEST(Topology, TwoTetsSharingAFace) {
   EXPECT_EQ(shared, 1);
 }
 
+TEST(Topology, NodeBoundaryFacesListEveryIncidentFaceOnce) {
+  const Topology t = topo_of(test::two_tets_sharing_face());
+  ASSERT_EQ(t.node_boundary_faces.rows(), t.num_nodes);
+  std::size_t total = 0;
+  for (Index v = 0; v < t.num_nodes; ++v) {
+    const auto row = t.node_boundary_faces.row(v);
+    total += row.size();
+    EXPECT_TRUE(std::is_sorted(row.begin(), row.end()));
+    EXPECT_EQ(row.empty(), t.is_boundary_node[v] == 0);
+    for (std::size_t k = 0; k < t.boundary_faces.size(); ++k) {
+      const auto& f = t.boundary_faces[k];
+      const bool uses = f[0] == v || f[1] == v || f[2] == v;
+      const bool listed = std::find(row.begin(), row.end(), static_cast<Index>(k)) != row.end();
+      EXPECT_EQ(uses, listed) << "node " << v << " face " << k;
+    }
+  }
+  EXPECT_EQ(total, 3 * t.boundary_faces.size());
+}
+
 class CubeSplit : public ::testing::TestWithParam<int> {};
 
 TEST_P(CubeSplit, TwelveBoundaryTrianglesAndClosedSurface) {
@@ -134,6 +153,8 @@ void expect_same_topology(const Topology& a, const Topology& b) {
   EXPECT_EQ(a.boundary_face_tet, b.boundary_face_tet);
   EXPECT_EQ(a.boundary_edges, b.boundary_edges);
   EXPECT_EQ(a.boundary_nodes, b.boundary_nodes);
+  EXPECT_EQ(a.node_boundary_faces.offsets, b.node_boundary_faces.offsets);
+  EXPECT_EQ(a.node_boundary_faces.indices, b.node_boundary_faces.indices);
   EXPECT_EQ(a.is_boundary_node, b.is_boundary_node);
   EXPECT_EQ(a.edges, b.edges);
   EXPECT_EQ(a.node_adjacency.offsets, b.node_adjacency.offsets);

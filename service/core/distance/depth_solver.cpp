@@ -176,6 +176,7 @@ struct BasicDepthSolver<D>::Impl {
   std::vector<Index> settled_list;
   std::vector<detail::QueueEntry> stage;
   std::vector<double> depth;        ///< original order
+  std::vector<Index> anchor;        ///< original order: see BasicDepthSolver::anchor()
   std::vector<std::uint32_t> mark;  ///< internal
   std::uint32_t stamp = 0;
   std::vector<Index> marked;
@@ -303,6 +304,7 @@ struct BasicDepthSolver<D>::Impl {
          options.cffm == CffmVariant::kNearStarts))
       point.assign(nn, Vecf<D>::Zero());
     depth.assign(nn, kInf);
+    anchor.assign(nn, -1);
     boundary_pos.assign(static_cast<std::size_t>(num_boundary), Vecd<D>::Zero());
     mark.assign(nn, 0);
     settled_list.reserve(nn);
@@ -660,6 +662,7 @@ struct BasicDepthSolver<D>::Impl {
       const Index o = perm[i];
       if (i < num_boundary) {
         depth[o] = 0.0;
+        anchor[o] = o;
         continue;
       }
       const Vecd<D> x = positions.col(o);
@@ -667,8 +670,13 @@ struct BasicDepthSolver<D>::Impl {
         Vecd<D> c[D];
         for (int k = 0; k < D; ++k) c[k] = boundary_pos[simplices_int[feature[i]][k]];
         depth[o] = std::sqrt(simplex_distance<D, double>(x, c).sq_dist);
+        int near = 0;  // the feature's corner nearest the node
+        for (int k = 1; k < D; ++k)
+          if ((x - c[k]).squaredNorm() < (x - c[near]).squaredNorm()) near = k;
+        anchor[o] = perm[simplices_int[feature[i]][near]];
       } else {
         depth[o] = (x - boundary_pos[feature[i]]).norm();
+        anchor[o] = perm[feature[i]];
       }
     }
     settled = count;
@@ -710,7 +718,21 @@ struct BasicDepthSolver<D>::Impl {
         [&](const tbb::blocked_range<std::size_t>& r) {
           for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const Index v = nodes[i];
-            depth[v] = is_boundary[v] ? 0.0 : std::sqrt(bvh.nearest(positions.col(v)).sq_dist);
+            if (is_boundary[v]) {
+              depth[v] = 0.0;
+              anchor[v] = v;
+              continue;
+            }
+            const Vecd<D> x = positions.col(v);
+            const auto hit = bvh.nearest(x);
+            depth[v] = std::sqrt(hit.sq_dist);
+            if (hit.simplex < 0) continue;
+            const auto& f = surface.simplices[static_cast<std::size_t>(hit.simplex)];
+            Index best = f[0];
+            for (int k = 1; k < D; ++k)
+              if ((x - positions.col(f[k])).squaredNorm() < (x - positions.col(best)).squaredNorm())
+                best = f[k];
+            anchor[v] = best;
           }
         });
     settled = nodes.size();
@@ -718,6 +740,7 @@ struct BasicDepthSolver<D>::Impl {
 
   void reset() {
     std::fill(depth.begin(), depth.end(), kInf);
+    std::fill(anchor.begin(), anchor.end(), Index{-1});
     settled = 0;
   }
 };
@@ -792,6 +815,10 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
 template <int D>
 std::span<const double> BasicDepthSolver<D>::depth() const {
   return impl_->depth;
+}
+template <int D>
+std::span<const Index> BasicDepthSolver<D>::anchor() const {
+  return impl_->anchor;
 }
 template <int D>
 bool BasicDepthSolver<D>::settled(Index i) const {

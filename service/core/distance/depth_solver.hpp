@@ -117,6 +117,13 @@ class BasicDepthSolver {
 
   /// n depths (metres) from the last compute: >= 0 for settled nodes, +infinity else.
   [[nodiscard]] std::span<const double> depth() const;
+  /// n anchors from the last compute: for a settled node, a boundary node at the feature
+  /// its depth was measured to (CPFM: the closest boundary node found; CFFM and exact:
+  /// the corner of the closest boundary triangle, segment in 2D, nearest the node; a
+  /// boundary node: itself); -1 for nodes not settled. The response measures the depth
+  /// of a point inside a tet against the boundary faces around its four nodes' anchors
+  /// (docs/RESPONSE.md, "Nearest-face depth").
+  [[nodiscard]] std::span<const Index> anchor() const;
   /// True when node i got its final value in the last compute.
   [[nodiscard]] bool settled(Index i) const;
   /// Number of settled nodes in the last compute.

@@ -64,6 +64,16 @@ void add_boundary(Topology& topo, std::span<const Tet> tets,
                             topo.boundary_edges.end());
   for (Index i = 0; i < topo.num_nodes; ++i)
     if (topo.is_boundary_node[i]) topo.boundary_nodes.push_back(i);
+  // Node -> incident boundary faces, by a counting sort (faces ascending in each row).
+  Csr& rows = topo.node_boundary_faces;
+  rows.offsets.assign(static_cast<std::size_t>(topo.num_nodes) + 1, 0);
+  for (const auto& f : topo.boundary_faces)
+    for (const Index v : f) ++rows.offsets[static_cast<std::size_t>(v) + 1];
+  for (std::size_t i = 0; i + 1 < rows.offsets.size(); ++i) rows.offsets[i + 1] += rows.offsets[i];
+  rows.indices.resize(static_cast<std::size_t>(rows.offsets.back()));
+  std::vector<Index> next(rows.offsets.begin(), rows.offsets.end() - 1);
+  for (std::size_t k = 0; k < topo.boundary_faces.size(); ++k)
+    for (const Index v : topo.boundary_faces[k]) rows.indices[next[v]++] = static_cast<Index>(k);
 }
 
 /// Orphan nodes (from node_tets) and face-connected components (from tet_neighbors),

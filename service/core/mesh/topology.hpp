@@ -42,6 +42,9 @@ struct Topology {
   std::vector<Index> boundary_nodes;
   /// n flags: 1 for a boundary node.
   std::vector<std::uint8_t> is_boundary_node;
+  /// n rows: the boundary faces (indices into boundary_faces) using node i, ascending;
+  /// empty for interior nodes. The response's nearest-face queries read it.
+  Csr node_boundary_faces;
   /// Unique tet edges, (a, b) with a < b, sorted.
   std::vector<std::array<Index, 2>> edges;
   /// n rows: the nodes sharing a tet edge with node i, sorted.

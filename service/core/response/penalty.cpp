@@ -5,6 +5,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/distance/point_simplex_distance.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/response/tet_frame.hpp"
 
@@ -53,129 +54,171 @@ Vec3 velocity(const ResponseObject& o, Index node) {
   return v.allFinite() ? v : Vec3::Zero();
 }
 
-/// Squared distance from p to the triangle (a, b, c) (Ericson, Real-Time Collision
-/// Detection, 5.1.5: closest point by Voronoi regions).
-double point_triangle_distance2(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return ap.squaredNorm();
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return bp.squaredNorm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
-    const double v = d1 / (d1 - d3);
-    return (ap - v * ab).squaredNorm();
-  }
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return cp.squaredNorm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
-    const double w = d2 / (d2 - d6);
-    return (ap - w * ac).squaredNorm();
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return (bp - w * (c - b)).squaredNorm();
-  }
-  const double denom = va + vb + vc;
-  if (!(std::abs(denom) > 0.0)) return ap.squaredNorm();
-  const double v = vb / denom, w = vc / denom;
-  return (ap - v * ab - w * ac).squaredNorm();
-}
-
-/// The push-out direction of a contact at point x in tet t of the penetrated object.
+/// The push-out direction of a contact at point x in tet t of the penetrated object,
+/// and, on the nearest-face path, the depth there.
 struct Direction {
   Vec3 n = Vec3::UnitZ();        ///< unit push-out direction of the intruder
-  Vec3 gradient = Vec3::Zero();  ///< grad d (regular path only)
-  double gamma = 1.0;            ///< |grad d| for the blocks; 1 on fallbacks
+  Vec3 gradient = Vec3::Zero();  ///< grad d (gradient path only)
+  double gamma = 1.0;            ///< |grad d| for the blocks; 1 off the gradient path
   Fallback fallback = Fallback::kNone;
-  bool has_plane = false;  ///< a boundary face plane also gives a depth
-  Vec3 plane_point = Vec3::Zero();
-
-  /// Depth of x below the face plane (>= 0), metres.
-  [[nodiscard]] double plane_depth(const Vec3& x) const {
-    return has_plane ? std::max(0.0, (plane_point - x).dot(n)) : 0.0;
-  }
+  bool from_face = false;  ///< depth and direction from the nearest boundary face
 };
 
-/// Outward unit normal of face j of a tet with the given orientation sign (+1 or -1);
-/// false when the face has no area.
-bool face_normal(const Positions& pos, const Tet& tet, int j, double orientation, Vec3& normal,
-                 std::array<Vec3, 3>& corners) {
-  for (int i = 0; i < 3; ++i) corners[i] = pos.col(tet[kTetFaces[j][i]]);
-  const Vec3 e1 = corners[1] - corners[0], e2 = corners[2] - corners[0];
+/// Nearest boundary face of Y to one or two points, among the candidates of a tet.
+struct FaceHit {
+  double sq_dist = std::numeric_limits<double>::infinity();
+  Index face = -1;
+  Vec3 closest = Vec3::Zero();
+};
+
+/// Outward unit normal of boundary face f of Y (the owning tet's orientation decides the
+/// side); false when the face has no area.
+bool boundary_face_normal(const ResponseObject& y, Index f, Vec3& normal) {
+  const Topology& topo = *y.topology;
+  const auto& tri = topo.boundary_faces[static_cast<std::size_t>(f)];
+  const Vec3 a = y.positions->col(tri[0]);
+  const Vec3 e1 = y.positions->col(tri[1]) - a, e2 = y.positions->col(tri[2]) - a;
   const Vec3 cross = e1.cross(e2);
   const double norm = cross.norm();
   if (!(norm > 1e-14 * e1.norm() * e2.norm()) || !std::isfinite(norm)) return false;
+  const Tet& owner = y.tets[static_cast<std::size_t>(topo.boundary_face_tet[f])];
+  const double orientation = signed_volume(*y.positions, owner) < 0.0 ? -1.0 : 1.0;
   normal = orientation * cross / norm;
   return true;
 }
 
-double orientation_of(double volume6) {
-  return volume6 < 0.0 ? -1.0 : 1.0;
+/// Nearest boundary face of Y to x, searched from the faces around tet `tet`'s four nodes
+/// and around their anchors (the boundary nodes their depths were measured to), then by
+/// descent on the surface: while the closest point lies on a vertex or an edge of the
+/// best face, the faces around that vertex or edge's ends are searched too. Distances
+/// within `tie` (metres) of each other are ties, which go to the lower face index, so
+/// neither the order of the search nor rounding (a scale, an offset) decides between
+/// faces that are equally near.
+FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, double tie) {
+  FaceHit best;
+  if (y.topology == nullptr) return best;
+  const Topology& topo = *y.topology;
+  constexpr int kMaxRows = 48;  // rows searched at most (the descent stops there)
+  std::array<Index, kMaxRows> seen{};
+  int count = 0;
+  FeatureLoc best_loc = FeatureLoc::kInterior;
+  double best_dist = std::numeric_limits<double>::infinity();
+  const auto scan = [&](Index v) {
+    if (v < 0 || v >= topo.node_boundary_faces.rows() || count == kMaxRows) return false;
+    for (int i = 0; i < count; ++i)
+      if (seen[i] == v) return false;
+    seen[count++] = v;
+    bool improved = false;
+    for (const Index f : topo.node_boundary_faces.row(v)) {
+      const auto& tri = topo.boundary_faces[static_cast<std::size_t>(f)];
+      const auto cp =
+          closest_point_triangle(x, Vec3(y.positions->col(tri[0])), Vec3(y.positions->col(tri[1])),
+                                 Vec3(y.positions->col(tri[2])));
+      const double d2 = (cp.point - x).squaredNorm();
+      const double d = std::sqrt(d2);
+      if (d < best_dist - tie || (d <= best_dist + tie && f < best.face)) {
+        best_dist = d;
+        best.sq_dist = d2;
+        best.face = f;
+        best.closest = cp.point;
+        best_loc = cp.loc;
+        improved = true;
+      }
+    }
+    return improved;
+  };
+  for (int k = 0; k < 4; ++k) scan(tet[k]);
+  if (!y.anchor.empty())
+    for (int k = 0; k < 4; ++k) scan(y.anchor[static_cast<std::size_t>(tet[k])]);
+  // Descent: the faces around the closest point's vertex (or its edge's two ends).
+  while (best.face >= 0 && best_loc != FeatureLoc::kInterior) {
+    const auto& tri = topo.boundary_faces[static_cast<std::size_t>(best.face)];
+    Index ends[2] = {-1, -1};
+    switch (best_loc) {
+      case FeatureLoc::kV0:
+      case FeatureLoc::kV1:
+      case FeatureLoc::kV2:
+        ends[0] = tri[static_cast<int>(best_loc)];
+        break;
+      case FeatureLoc::kE01:
+        ends[0] = tri[0], ends[1] = tri[1];
+        break;
+      case FeatureLoc::kE12:
+        ends[0] = tri[1], ends[1] = tri[2];
+        break;
+      case FeatureLoc::kE20:
+        ends[0] = tri[2], ends[1] = tri[0];
+        break;
+      case FeatureLoc::kInterior:
+        break;
+    }
+    const bool a = scan(ends[0]);
+    const bool b = scan(ends[1]);
+    if (!a && !b) break;
+  }
+  return best;
 }
 
-/// The fallback chain of docs/RESPONSE.md, section "Degenerate gradients".
-Direction fallback_direction(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                             const Vec3& pair_direction) {
+/// Push-out direction at x from its nearest face: towards the closest point, or the
+/// face's outward normal when x is (within rounding) on the face or on its outer side.
+bool face_direction(const ResponseObject& y, const FaceHit& hit, const Vec3& x, double size,
+                    Vec3& n) {
+  if (hit.face < 0 || !std::isfinite(hit.sq_dist)) return false;
+  Vec3 normal;
+  if (!boundary_face_normal(y, hit.face, normal)) return false;
+  const Vec3 out = hit.closest - x;
+  const double dist = std::sqrt(hit.sq_dist);
+  n = dist > 1e-9 * size && out.dot(normal) > 0.0 ? Vec3(out / dist) : normal;
+  return n.allFinite();
+}
+
+double longest_edge(const TetData& td) {
+  double size = 0.0;
+  for (const auto& e : kTetEdges) size = std::max(size, (td.x[e[0]] - td.x[e[1]]).norm());
+  return size;
+}
+
+/// The depth gradient of the tet, when it is usable (options' limits).
+bool gradient_direction(const TetData& td, const ResponseOptions& o, Direction& dir) {
+  if (!td.frame.regular) return false;
+  const Vec3 g = linear_gradient(td.frame, td.d);
+  const double norm = g.norm();
+  if (!(std::isfinite(norm) && norm >= o.min_gradient && norm <= o.max_gradient && norm > 0.0))
+    return false;
+  dir.n = -g / norm;
+  dir.gradient = g;
+  dir.gamma = norm;
+  return true;
+}
+
+/// The direction of a contact at x in tet t of Y (and on the nearest-face path that
+/// face, in `hit`), by the chain of docs/RESPONSE.md "Depth and direction": the
+/// evaluation asked for, then the other one, then the pair direction, then +z.
+Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
+                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
   Direction dir;
-  if (y.topology != nullptr) {
-    const Topology& topo = *y.topology;
-    const Tet& tet = y.tets[static_cast<std::size_t>(t)];
-    std::array<Vec3, 3> corners;
-    Vec3 normal;
-    // Near-ties go to the first candidate, so rounding (scale, offset) cannot flip the
-    // choice between faces that are equally near.
-    double size = 0.0;
-    for (const auto& e : kTetEdges) size = std::max(size, (td.x[e[0]] - td.x[e[1]]).norm());
-    const double tie = 1e-9 * size;
-    // 1. The tet's own boundary faces: the nearest face plane.
-    double best = std::numeric_limits<double>::infinity();
-    const double own_orientation = orientation_of(td.frame.volume6);
-    for (int j = 0; j < 4; ++j) {
-      if (topo.tet_neighbors[static_cast<std::size_t>(t)][j] != -1) continue;
-      if (!face_normal(*y.positions, tet, j, own_orientation, normal, corners)) continue;
-      const double inward = (corners[0] - x).dot(normal);
-      if (inward < best - tie) {
-        best = inward;
-        dir.n = normal;
-        dir.plane_point = corners[0];
-        dir.has_plane = true;
-        dir.fallback = Fallback::kOwnFace;
-      }
+  const Tet& tet = y.tets[static_cast<std::size_t>(t)];
+  const auto by_face = [&] {
+    const double size = longest_edge(td);
+    hit = nearest_face(y, tet, x, 1e-9 * size);
+    if (!face_direction(y, hit, x, size, dir.n)) return false;
+    dir.from_face = true;
+    return true;
+  };
+  if (o.evaluation == DepthEvaluation::kNearestFace) {
+    if (by_face()) return dir;
+    if (gradient_direction(td, o, dir)) {
+      dir.fallback = Fallback::kGradient;
+      return dir;
     }
-    if (dir.has_plane) return dir;
-    // 2. Boundary faces of the tets sharing a node with t: the nearest triangle.
-    std::vector<Index> ring;
-    for (int k = 0; k < 4; ++k)
-      for (const Index s : topo.node_tets.row(tet[k]))
-        if (s != t) ring.push_back(s);
-    std::sort(ring.begin(), ring.end());
-    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-    best = std::numeric_limits<double>::infinity();
-    for (const Index s : ring) {
-      const Tet& other = y.tets[static_cast<std::size_t>(s)];
-      const double orientation = orientation_of(signed_volume(*y.positions, other));
-      for (int j = 0; j < 4; ++j) {
-        if (topo.tet_neighbors[static_cast<std::size_t>(s)][j] != -1) continue;
-        if (!face_normal(*y.positions, other, j, orientation, normal, corners)) continue;
-        const double dist =
-            std::sqrt(point_triangle_distance2(x, corners[0], corners[1], corners[2]));
-        if (dist < best - tie) {
-          best = dist;
-          dir.n = normal;
-          dir.plane_point = corners[0];
-          dir.has_plane = true;
-          dir.fallback = Fallback::kRingFace;
-        }
-      }
+  } else {
+    if (gradient_direction(td, o, dir)) return dir;
+    if (by_face()) {
+      dir.fallback = Fallback::kNearestFace;
+      return dir;
     }
-    if (dir.has_plane) return dir;
   }
-  // 3. Away from Y's contact region towards X's; 4. a fixed axis.
+  // Away from Y's contact region towards X's; else a fixed axis.
   if (pair_direction.allFinite() && pair_direction.squaredNorm() > 0.5) {
     dir.n = pair_direction.normalized();
     dir.fallback = Fallback::kPairDirection;
@@ -184,22 +227,6 @@ Direction fallback_direction(const ResponseObject& y, Index t, const TetData& td
     dir.fallback = Fallback::kAxis;
   }
   return dir;
-}
-
-Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                       const ResponseOptions& o, const Vec3& pair_direction) {
-  if (td.frame.regular) {
-    const Vec3 g = linear_gradient(td.frame, td.d);
-    const double norm = g.norm();
-    if (std::isfinite(norm) && norm >= o.min_gradient && norm <= o.max_gradient && norm > 0.0) {
-      Direction dir;
-      dir.n = -g / norm;
-      dir.gradient = g;
-      dir.gamma = norm;
-      return dir;
-    }
-  }
-  return fallback_direction(y, t, td, x, pair_direction);
 }
 
 /// d/dp of node_length_weight: half the sum of the unit vectors from the neighbours.
@@ -264,12 +291,18 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
     return r;
   }
   r.inverted = td.frame.volume6 < 0.0;
-  const Direction dir = direction_at(target, c.tet, td, p, options, pair_direction);
+  FaceHit hit;
+  const Direction dir = direction_at(target, c.tet, td, p, options, pair_direction, hit);
   r.fallback = dir.fallback;
   r.normal = dir.n;
+  // The interpolation's own fallback keeps its depth where that is larger (a flat tet
+  // inside a body has node depths but no volume); the default path uses the face alone.
   double depth = beta.dot(td.d);
-  if (dir.has_plane) depth = std::max(depth, dir.plane_depth(p));
-  r.depth = std::max(depth, 0.0);
+  if (dir.from_face)
+    depth = dir.fallback == Fallback::kNearestFace ? std::max(depth, std::sqrt(hit.sq_dist))
+                                                   : std::sqrt(hit.sq_dist);
+  depth = std::max(depth, 0.0);
+  r.depth = depth;
 
   const bool by_length = options.measure == ForceMeasure::kEdgeLength;
   const double w = by_length ? node_length_weight(intruder, c.node) : 1.0;
@@ -297,7 +330,7 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
 
   const Vec3& n = dir.n;
   const Mat3 nn = n * n.transpose();
-  if (options.stiffness_mode == StiffnessMode::kLumped || dir.fallback != Fallback::kNone) {
+  if (options.stiffness_mode == StiffnessMode::kLumped || dir.gradient.isZero()) {
     r.stiffness[0] = -ce * dir.gamma * nn;
     for (int k = 0; k < r.target_nodes; ++k) r.stiffness[1 + k] = beta[k] * r.stiffness[0];
     return r;
@@ -350,14 +383,26 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   Vec4 b1 = raw1, b2 = raw2;
   if (!normalize_weights(b1)) b1 = Vec4::Constant(0.25);
   if (!normalize_weights(b2)) b2 = Vec4::Constant(0.25);
+  // One face for the whole piece: the nearest to its midpoint. Its plane gives the
+  // depth at both clip points and its outward normal the direction, a linear depth field
+  // like the interpolated one, which the two-point form below integrates exactly
+  // (per-point nearest faces would switch along the piece near a convex edge and make
+  // the force jump; docs/RESPONSE.md).
+  const Vec3 mid = 0.5 * (x1 + x2);
+  FaceHit hit;
+  Direction dir = direction_at(target, c.tet, td, mid, options, pair_direction, hit);
   double d1 = b1.dot(td.d), d2 = b2.dot(td.d);
-  const Direction dir = direction_at(target, c.tet, td, 0.5 * (x1 + x2), options, pair_direction);
+  if (dir.from_face) {
+    Vec3 normal;
+    if (boundary_face_normal(target, hit.face, normal)) dir.n = normal;
+    const double p1 = std::max(0.0, (hit.closest - x1).dot(dir.n));
+    const double p2 = std::max(0.0, (hit.closest - x2).dot(dir.n));
+    const bool keep = dir.fallback == Fallback::kNearestFace;  // as for point contacts
+    d1 = keep ? std::max(d1, p1) : p1;
+    d2 = keep ? std::max(d2, p2) : p2;
+  }
   r.fallback = dir.fallback;
   r.normal = dir.n;
-  if (dir.has_plane) {
-    d1 = std::max(d1, dir.plane_depth(x1));
-    d2 = std::max(d2, dir.plane_depth(x2));
-  }
   r.depth = std::max({d1, d2, 0.0});
 
   const bool by_length = options.measure == ForceMeasure::kEdgeLength;
@@ -401,7 +446,7 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   const Vec3& n = dir.n;
   const Mat3 nn = n * n.transpose();
   const double kl = k * ell;
-  if (options.stiffness_mode == StiffnessMode::kLumped || dir.fallback != Fallback::kNone) {
+  if (options.stiffness_mode == StiffnessMode::kLumped || dir.gradient.isZero()) {
     const double scale = kl * dir.gamma;
     r.stiffness[0] = -scale * delta * (1.0 - 0.5 * (l1 + l2)) * nn;
     r.stiffness[1] = -scale * delta * 0.5 * (l1 + l2) * nn;

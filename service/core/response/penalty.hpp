@@ -48,6 +48,20 @@ enum class StiffnessMode {
   kExact,
 };
 
+/// Where a contact's depth and push-out direction come from (docs/RESPONSE.md,
+/// "Depth and direction").
+enum class DepthEvaluation : std::uint8_t {
+  /// Default. The distance from the point to the nearest boundary face of the penetrated
+  /// object among the faces around the tet's four nodes and around their anchors (the
+  /// boundary nodes the depth map measured them to, ResponseObject::anchor); the
+  /// direction points to that face's closest point. Never below the exact depth.
+  kNearestFace,
+  /// The paper's 5.1: the node depths interpolated linearly in the tet, the direction
+  /// from their gradient. Far off near faces the tet does not touch (10% of the point
+  /// contacts of a coarse face-on-face contact off by more than 10%, RESPONSE.md).
+  kInterpolate,
+};
+
 /// Settings of the response of one object pair.
 struct ResponseOptions {
   ResponseKind kind = ResponseKind::kAuto;  ///< point, segment, or by mesh density
@@ -62,6 +76,9 @@ struct ResponseOptions {
   /// edge length of X's contact tets exceeds this fraction of the contact extent (the
   /// diagonal of the overlap of the two objects' contact-tet boxes). Dimensionless.
   double auto_threshold = 0.25;
+  DepthEvaluation evaluation = DepthEvaluation::kNearestFace;
+  /// Fill PairResponse::point_contacts (an audit of depths and directions).
+  bool record_contacts = false;
   /// Depth gradients are trusted when min_gradient <= |grad d| <= max_gradient
   /// (dimensionless: a distance field has |grad d| = 1); otherwise the fallback
   /// direction is used (equal node depths, four boundary nodes, slivers, flat tets).
@@ -82,13 +99,18 @@ struct ResponseObject {
                                           ///< > 0 inside; must be finite on the nodes of
                                           ///< the tets named by the contacts
   const Positions* velocities = nullptr;  ///< optional 3 x n, m/s (damping only)
+  std::span<const Index> anchor;          ///< n anchors (DepthSolver::anchor()), or empty:
+                                          ///< then only the faces around the tet's own
+                                          ///< nodes are nearest-face candidates
 };
 
 /// How a contact's push-out direction was found.
 enum class Fallback : std::uint8_t {
-  kNone,           ///< the depth gradient of the tet
-  kOwnFace,        ///< nearest boundary face of the tet itself (plane depth also used)
-  kRingFace,       ///< nearest boundary face among tets sharing a node with the tet
+  kNone,           ///< the evaluation asked for (ResponseOptions::evaluation) worked
+  kNearestFace,    ///< kInterpolate's gradient was unusable: the nearest boundary face
+                   ///< gave the depth and direction (kNearestFace's own path)
+  kGradient,       ///< kNearestFace found no candidate face: the interpolated depth and
+                   ///< its gradient (kInterpolate's path)
   kPairDirection,  ///< from the centre of Y's contact tets to the centre of X's
   kAxis,           ///< +z: nothing else was defined
 };

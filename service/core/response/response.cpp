@@ -40,6 +40,9 @@ Status validate_object(const ResponseObject& o, const char* name) {
   if (o.depth.size() != n)
     return invalid(who + ": depth has " + std::to_string(o.depth.size()) + " values for " +
                    std::to_string(n) + " nodes");
+  if (!o.anchor.empty() && o.anchor.size() != n)
+    return invalid(who + ": anchor has " + std::to_string(o.anchor.size()) + " values for " +
+                   std::to_string(n) + " nodes");
   if (o.velocities != nullptr && static_cast<std::size_t>(o.velocities->cols()) != n)
     return invalid(who + ": velocities have " + std::to_string(o.velocities->cols()) +
                    " columns for " + std::to_string(n) + " nodes");
@@ -157,8 +160,8 @@ void ResponseStats::add(const ResponseStats& other) {
   inactive += other.inactive;
   skipped += other.skipped;
   inverted += other.inverted;
-  fallback_own_face += other.fallback_own_face;
-  fallback_ring_face += other.fallback_ring_face;
+  fallback_nearest_face += other.fallback_nearest_face;
+  fallback_gradient += other.fallback_gradient;
   fallback_pair += other.fallback_pair;
   fallback_axis += other.fallback_axis;
   max_depth = std::max(max_depth, other.max_depth);
@@ -240,6 +243,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   }
   out.used_a_in_b = out.used_b_in_a = ResponseKind::kPoint;
   out.stats = ResponseStats{};
+  out.point_contacts.clear();
   if (Status s = validate_options(options); !s) return s;
   if (Status s = validate_object(a, "A"); !s) return s;
   if (Status s = validate_object(b, "B"); !s) return s;
@@ -273,6 +277,12 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
                               "edges_b_in_a")
              : validate_nodes(contacts.nodes_b_in_a, n_b, a.tets.size(), "nodes_b_in_a");
   if (!s) return s;
+  if (options.record_contacts) {  // the record reads the node lists of both directions
+    if (seg_ab) s = validate_nodes(contacts.nodes_a_in_b, n_a, b.tets.size(), "nodes_a_in_b");
+    if (!s) return s;
+    if (seg_ba) s = validate_nodes(contacts.nodes_b_in_a, n_b, a.tets.size(), "nodes_b_in_a");
+    if (!s) return s;
+  }
 
   // Fallback direction 3, from B's contact centre towards A's: computed on first need
   // (a contact whose gradient and boundary faces both failed), then reused.
@@ -297,6 +307,10 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   sums_b_.prepare(b.positions->cols(), blocks);
   ResponseStats& st = out.stats;
 
+  const auto record = [&](const IntrudingNode& c, const ContactResult& r, bool intruder_is_a) {
+    if (r.active && !r.skipped)
+      out.point_contacts.push_back({intruder_is_a, c.node, c.tet, r.depth, r.normal, r.fallback});
+  };
   const auto accumulate = [&](const ContactResult& r, bool segment, NodeSums& xs, NodeSums& ys) {
     if (r.skipped) {
       ++st.skipped;
@@ -311,11 +325,11 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     switch (r.fallback) {
       case Fallback::kNone:
         break;
-      case Fallback::kOwnFace:
-        ++st.fallback_own_face;
+      case Fallback::kNearestFace:
+        ++st.fallback_nearest_face;
         break;
-      case Fallback::kRingFace:
-        ++st.fallback_ring_face;
+      case Fallback::kGradient:
+        ++st.fallback_gradient;
         break;
       case Fallback::kPairDirection:
         ++st.fallback_pair;
@@ -344,14 +358,18 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
         return point_contact(x, y, c, options, dir);
     };
     const auto finish = [&](const auto& c, const ContactResult& r) {
+      ContactResult redone;
+      const ContactResult* used = &r;
       if (r.fallback == Fallback::kAxis && !r.skipped) {
         const Vec3 dir = sign * pair_direction();
         if (!dir.isZero()) {
-          accumulate(kernel(c, dir), segment, xs, ys);
-          return;
+          redone = kernel(c, dir);
+          used = &redone;
         }
       }
-      accumulate(r, segment, xs, ys);
+      accumulate(*used, segment, xs, ys);
+      if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingNode>)
+        if (options.record_contacts) record(c, *used, sign > 0.0);
     };
     const Vec3 none = Vec3::Zero();
     if (list.size() >= std::max<std::size_t>(options.parallel_threshold, 1)) {
@@ -366,14 +384,30 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
       for (const auto& c : list) finish(c, kernel(c, none));
     }
   };
-  if (seg_ab)
+  // The record of a direction answered by segments: its point contacts, forces unused.
+  const auto record_points = [&](std::span<const IntrudingNode> list, const ResponseObject& x,
+                                 const ResponseObject& y, double sign) {
+    for (const IntrudingNode& c : list) {
+      ContactResult r = point_contact(x, y, c, options, Vec3::Zero());
+      if (r.fallback == Fallback::kAxis && !r.skipped) {
+        const Vec3 dir = sign * pair_direction();
+        if (!dir.isZero()) r = point_contact(x, y, c, options, dir);
+      }
+      record(c, r, sign > 0.0);
+    }
+  };
+  if (seg_ab) {
     run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, 1.0);
-  else
+    if (options.record_contacts) record_points(contacts.nodes_a_in_b, a, b, 1.0);
+  } else {
     run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, 1.0);
-  if (seg_ba)
+  }
+  if (seg_ba) {
     run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, -1.0);
-  else
+    if (options.record_contacts) record_points(contacts.nodes_b_in_a, b, a, -1.0);
+  } else {
     run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, -1.0);
+  }
 
   sums_a_.extract(out.a, blocks);
   sums_b_.extract(out.b, blocks);

@@ -23,18 +23,29 @@ namespace tc {
 
 /// Counts of one or more pair responses.
 struct ResponseStats {
-  std::size_t point_contacts = 0;      ///< point contacts that produced a force
-  std::size_t segment_contacts = 0;    ///< (edge, tet) pieces that produced a force
-  std::size_t inactive = 0;            ///< contacts with no force (zero depth, separating)
-  std::size_t skipped = 0;             ///< contacts skipped for non-finite input
-  std::size_t inverted = 0;            ///< contacts in inverted tets (processed)
-  std::size_t fallback_own_face = 0;   ///< direction from the tet's own boundary face
-  std::size_t fallback_ring_face = 0;  ///< ... from a boundary face of a neighbouring tet
-  std::size_t fallback_pair = 0;       ///< ... from the pair's contact centres
-  std::size_t fallback_axis = 0;       ///< ... +z
-  double max_depth = 0.0;              ///< deepest penetration of an active contact, m
+  std::size_t point_contacts = 0;         ///< point contacts that produced a force
+  std::size_t segment_contacts = 0;       ///< (edge, tet) pieces that produced a force
+  std::size_t inactive = 0;               ///< contacts with no force (zero depth, separating)
+  std::size_t skipped = 0;                ///< contacts skipped for non-finite input
+  std::size_t inverted = 0;               ///< contacts in inverted tets (processed)
+  std::size_t fallback_nearest_face = 0;  ///< interpolation's gradient unusable: nearest face
+  std::size_t fallback_gradient = 0;      ///< no candidate face: interpolated depth
+  std::size_t fallback_pair = 0;          ///< ... from the pair's contact centres
+  std::size_t fallback_axis = 0;          ///< ... +z
+  double max_depth = 0.0;                 ///< deepest penetration of an active contact, m
 
   void add(const ResponseStats& other);
+};
+
+/// One point contact as the response saw it (ResponseOptions::record_contacts): the
+/// intruding node, the depth its force used and the unit push-out direction.
+struct PointContactRecord {
+  bool intruder_is_a = true;  ///< the node belongs to A (inside B), else to B (inside A)
+  Index node = -1;            ///< node index in its object (0-based, file order)
+  Index tet = -1;             ///< the penetrated object's tet containing it
+  double depth = 0.0;         ///< metres
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit push-out direction
+  Fallback fallback = Fallback::kNone;
 };
 
 /// The response of one pair (A, B).
@@ -44,6 +55,11 @@ struct PairResponse {
   ResponseKind used_a_in_b = ResponseKind::kPoint;  ///< kPoint or kSegment (A's features in B)
   ResponseKind used_b_in_a = ResponseKind::kPoint;  ///< kPoint or kSegment (B's features in A)
   ResponseStats stats;
+  /// With ResponseOptions::record_contacts: every active point contact, A's nodes in B
+  /// first, by node. Where the segment response was used for a direction, the point
+  /// contacts of that direction's intruding nodes are evaluated for the record only
+  /// (they add no force): the rows are the same for either response.
+  std::vector<PointContactRecord> point_contacts;
 };
 
 /// What kAuto measures for the features of X entering Y.

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/detect/detect.hpp"
+#include "core/distance/boundary_bvh.hpp"
 #include "core/distance/depth_solver.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
@@ -226,12 +227,16 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (contacts[p].empty()) continue;
     SceneObject& a = *list[pairs[p].first];
     SceneObject& b = *list[pairs[p].second];
-    const ResponseObject ra{&a.positions, a.mesh.tets, &a.topology, a.depth->depth(), nullptr};
-    const ResponseObject rb{&b.positions, b.mesh.tets, &b.topology, b.depth->depth(), nullptr};
+    const ResponseObject ra{&a.positions,     a.mesh.tets, &a.topology,
+                            a.depth->depth(), nullptr,     a.depth->anchor()};
+    const ResponseObject rb{&b.positions,     b.mesh.tets, &b.topology,
+                            b.depth->depth(), nullptr,     b.depth->anchor()};
     ResponseOptions options = pair_options(a.params, b.params);
     if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
     if (impl_->config.density_threshold > 0.0)
       options.auto_threshold = impl_->config.density_threshold;
+    options.record_contacts = impl_->config.record_contacts;
+    options.evaluation = impl_->config.evaluation;
     PairResponse& response = impl_->pair_response;
     const Status st = impl_->accumulator.compute(ra, rb, contacts[p], options, response);
     if (!st) {
@@ -240,6 +245,9 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     }
     out.stats.contacts += response.stats.point_contacts + response.stats.segment_contacts;
     out.stats.max_depth = std::max(out.stats.max_depth, response.stats.max_depth);
+    for (const PointContactRecord& c : response.point_contacts)
+      out.point_contacts.push_back({c.intruder_is_a ? a.name : b.name,
+                                    c.intruder_is_a ? b.name : a.name, c.node, c.depth, c.normal});
     if (!response.a.nodes.empty()) add_object_forces(totals[a.name], response.a);
     if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
   }
@@ -250,6 +258,32 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   }
   out.stats.response_ms = ms_since(t0);
   out.stats.total_ms = ms_since(frame_start);
+  return out;
+}
+
+Expected<std::vector<double>> Pipeline::exact_depths(
+    std::span<const FramePointContact> contacts) const {
+  std::map<std::string, BoundaryBvh<3>> bvhs;
+  std::vector<double> out;
+  out.reserve(contacts.size());
+  for (const FramePointContact& c : contacts) {
+    const auto intruder = impl_->objects.find(c.object);
+    const auto target = impl_->objects.find(c.penetrated);
+    if (intruder == impl_->objects.end() || target == impl_->objects.end())
+      return Error{ErrorCode::kUnknownObject,
+                   "exact_depths: unknown object '" +
+                       (intruder == impl_->objects.end() ? c.object : c.penetrated) + "'"};
+    const Positions& x = intruder->second->positions;
+    if (c.node < 0 || c.node >= x.cols())
+      return Error{ErrorCode::kInvalidArgument, "exact_depths: node " + std::to_string(c.node) +
+                                                    " of '" + c.object + "' out of range"};
+    auto [it, fresh] = bvhs.try_emplace(c.penetrated);
+    if (fresh) {
+      const SceneObject& y = *target->second;
+      it->second.build(y.topology.boundary_faces, y.positions);
+    }
+    out.push_back(std::sqrt(it->second.nearest(x.col(c.node)).sq_dist));
+  }
   return out;
 }
 

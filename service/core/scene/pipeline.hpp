@@ -14,6 +14,7 @@
 
 #include "core/common/result.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "core/response/penalty.hpp"
 #include "core/scene/scene.hpp"
 
 namespace tc {
@@ -27,6 +28,11 @@ struct PipelineConfig {
   /// kAuto: segment response when the intruder's RMS contact-tet edge length exceeds this
   /// fraction of the contact extent (ResponseOptions::auto_threshold); 0 = default 0.25.
   double density_threshold = 0.0;
+  /// Also list every point contact (FrameOutput::point_contacts): an audit of the depths
+  /// and directions the response used.
+  bool record_contacts = false;
+  /// Where contact depths and directions come from (ResponseOptions::evaluation).
+  DepthEvaluation evaluation = DepthEvaluation::kNearestFace;
 };
 
 /// One object's state in a frame.
@@ -57,11 +63,24 @@ struct ObjectError {
   Error error;
 };
 
+/// One point contact of a frame: a node of `object` inside `penetrated`, the depth its
+/// force used and its unit push-out direction. Where a direction used the segment
+/// response, its intruding nodes are evaluated as point contacts for this list only.
+struct FramePointContact {
+  std::string object;
+  std::string penetrated;
+  Index node = -1;  ///< node index in `object` (0-based, file order)
+  double depth = 0.0;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+};
+
 struct FrameOutput {
   std::int64_t frame = 0;
   std::vector<ObjectForces> forces;  ///< one entry per object with a non-zero force, by name
   FrameStats stats;
   std::vector<ObjectError> errors;
+  /// With PipelineConfig::record_contacts: pairs in order, A's nodes in B first.
+  std::vector<FramePointContact> point_contacts;
 };
 
 class Pipeline {
@@ -88,6 +107,13 @@ class Pipeline {
   /// topology version, a wrong node count or non-finite or inverted positions is
   /// rejected into FrameOutput::errors; the rest of the frame runs.
   FrameOutput run_frame(std::int64_t frame, std::span<const FrameObjectInput> states);
+
+  /// The exact reference for an audit: the distance from each contact's node, at the
+  /// positions of the last frame, to the boundary of the object it penetrates (a BVH
+  /// over that object's boundary triangles), metres.
+  /// @return kUnknownObject naming an object that is not registered; kInvalidArgument
+  ///         for a node index out of range.
+  Expected<std::vector<double>> exact_depths(std::span<const FramePointContact> contacts) const;
 
  private:
   struct Impl;
