@@ -62,6 +62,7 @@ struct Direction {
   double gamma = 1.0;            ///< |grad d| for the blocks; 1 off the gradient path
   Fallback fallback = Fallback::kNone;
   bool from_face = false;  ///< depth and direction from the nearest boundary face
+  bool forced = false;     ///< the pair direction of a symmetric overlap's separating pass
 };
 
 /// Nearest boundary face of Y to one or two points, among the candidates of a tet.
@@ -159,6 +160,25 @@ FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, dou
   return best;
 }
 
+/// The direction by the depth (direction_by_depth, below), or, in the separating pass of
+/// a symmetric overlap (ResponseOptions::along_pair_direction), the pair direction with
+/// the depth found as usual.
+Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
+                             const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit);
+
+Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
+                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
+  Direction dir = direction_by_depth(y, t, td, x, o, pair_direction, hit);
+  if (o.along_pair_direction && pair_direction.allFinite() && pair_direction.squaredNorm() > 0.5) {
+    dir.n = pair_direction.normalized();
+    dir.gradient.setZero();
+    dir.gamma = 1.0;
+    dir.fallback = Fallback::kPairDirection;
+    dir.forced = true;
+  }
+  return dir;
+}
+
 /// Push-out direction at x from its nearest face: towards the closest point, or the
 /// face's outward normal when x is (within rounding) on the face or on its outer side.
 bool face_direction(const ResponseObject& y, const FaceHit& hit, const Vec3& x, double size,
@@ -194,8 +214,8 @@ bool gradient_direction(const TetData& td, const ResponseOptions& o, Direction& 
 /// The direction of a contact at x in tet t of Y (and on the nearest-face path that
 /// face, in `hit`), by the chain of docs/RESPONSE.md "Depth and direction": the
 /// evaluation asked for, then the other one, then the pair direction, then +z.
-Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
+Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
+                             const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
   Direction dir;
   const Tet& tet = y.tets[static_cast<std::size_t>(t)];
   const auto by_face = [&] {
@@ -393,10 +413,11 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   Direction dir = direction_at(target, c.tet, td, mid, options, pair_direction, hit);
   double d1 = b1.dot(td.d), d2 = b2.dot(td.d);
   if (dir.from_face) {
-    Vec3 normal;
-    if (boundary_face_normal(target, hit.face, normal)) dir.n = normal;
-    const double p1 = std::max(0.0, (hit.closest - x1).dot(dir.n));
-    const double p2 = std::max(0.0, (hit.closest - x2).dot(dir.n));
+    Vec3 normal = dir.n;
+    if (!boundary_face_normal(target, hit.face, normal)) normal = dir.n;
+    if (!dir.forced) dir.n = normal;
+    const double p1 = std::max(0.0, (hit.closest - x1).dot(normal));
+    const double p2 = std::max(0.0, (hit.closest - x2).dot(normal));
     const bool keep = dir.fallback == Fallback::kNearestFace;  // as for point contacts
     d1 = keep ? std::max(d1, p1) : p1;
     d2 = keep ? std::max(d2, p2) : p2;

@@ -79,6 +79,13 @@ struct ResponseOptions {
   DepthEvaluation evaluation = DepthEvaluation::kNearestFace;
   /// Fill PairResponse::point_contacts (an audit of depths and directions).
   bool record_contacts = false;
+  /// A pair whose summed per-node forces fall below this fraction of the summed pushes
+  /// on the intruding nodes, with pushes both ways, is a symmetric overlap and is
+  /// answered along one separating direction (docs/RESPONSE.md); 0 = never.
+  double symmetric_ratio = 0.1;
+  /// Every contact pushes along the pair direction given to the kernel (its depth as
+  /// usual): the separating pass of a symmetric overlap.
+  bool along_pair_direction = false;
   /// Depth gradients are trusted when min_gradient <= |grad d| <= max_gradient
   /// (dimensionless: a distance field has |grad d| = 1); otherwise the fallback
   /// direction is used (equal node depths, four boundary nodes, slivers, flat tets).

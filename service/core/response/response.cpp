@@ -162,6 +162,7 @@ void ResponseStats::add(const ResponseStats& other) {
   inverted += other.inverted;
   fallback_nearest_face += other.fallback_nearest_face;
   fallback_gradient += other.fallback_gradient;
+  symmetric_pairs += other.symmetric_pairs;
   fallback_pair += other.fallback_pair;
   fallback_axis += other.fallback_axis;
   max_depth = std::max(max_depth, other.max_depth);
@@ -212,6 +213,22 @@ void ResponseAccumulator::NodeSums::add(Index node, const Vec3& f, const Mat3* k
   }
   force[i] += f;
   if (k != nullptr) stiffness[i] += *k;
+}
+
+double ResponseAccumulator::NodeSums::magnitude() const {
+  double sum = 0.0;
+  for (const Index node : touched) sum += force[static_cast<std::size_t>(node)].norm();
+  return sum;
+}
+
+void ResponseAccumulator::NodeSums::clear() {
+  for (const Index node : touched) {
+    const auto i = static_cast<std::size_t>(node);
+    force[i].setZero();
+    if (i < stiffness.size()) stiffness[i].setZero();
+    used[i] = 0;
+  }
+  touched.clear();
 }
 
 void ResponseAccumulator::NodeSums::extract(ObjectForces& out, bool blocks) {
@@ -306,6 +323,11 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   sums_a_.prepare(a.positions->cols(), blocks);
   sums_b_.prepare(b.positions->cols(), blocks);
   ResponseStats& st = out.stats;
+  // What the symmetric-overlap check reads: the pushes' magnitudes, by direction.
+  double push_sum = 0.0;
+  std::size_t active_ab = 0, active_ba = 0;
+  const ResponseOptions* opt = &options;  // the pass's options (the separating pass's)
+  Vec3 forced = Vec3::Zero();             // the separating pass's direction for A
 
   const auto record = [&](const IntrudingNode& c, const ContactResult& r, bool intruder_is_a) {
     if (r.active && !r.skipped)
@@ -339,8 +361,11 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
         break;
     }
     st.max_depth = std::max(st.max_depth, r.depth);
-    for (int i = 0; i < r.intruder_nodes; ++i)
+    ++(&xs == &sums_a_ ? active_ab : active_ba);
+    for (int i = 0; i < r.intruder_nodes; ++i) {
+      push_sum += r.force[i].norm();
       xs.add(r.node[i], r.force[i], blocks ? &r.stiffness[i] : nullptr);
+    }
     for (int j = 0; j < r.target_nodes; ++j) {
       const int e = r.intruder_nodes + j;
       ys.add(r.node[e], r.force[e], blocks ? &r.stiffness[e] : nullptr);
@@ -353,9 +378,9 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
                        const ResponseObject& y, NodeSums& xs, NodeSums& ys, double sign) {
     const auto kernel = [&](const auto& c, const Vec3& dir) {
       if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingEdge>)
-        return segment_contact(x, y, c, options, dir);
+        return segment_contact(x, y, c, *opt, dir);
       else
-        return point_contact(x, y, c, options, dir);
+        return point_contact(x, y, c, *opt, dir);
     };
     const auto finish = [&](const auto& c, const ContactResult& r) {
       ContactResult redone;
@@ -371,7 +396,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
       if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingNode>)
         if (options.record_contacts) record(c, *used, sign > 0.0);
     };
-    const Vec3 none = Vec3::Zero();
+    const Vec3 none = sign * forced;
     if (list.size() >= std::max<std::size_t>(options.parallel_threshold, 1)) {
       results_.resize(list.size());
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 64),
@@ -388,25 +413,59 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   const auto record_points = [&](std::span<const IntrudingNode> list, const ResponseObject& x,
                                  const ResponseObject& y, double sign) {
     for (const IntrudingNode& c : list) {
-      ContactResult r = point_contact(x, y, c, options, Vec3::Zero());
+      ContactResult r = point_contact(x, y, c, *opt, sign * forced);
       if (r.fallback == Fallback::kAxis && !r.skipped) {
         const Vec3 dir = sign * pair_direction();
-        if (!dir.isZero()) r = point_contact(x, y, c, options, dir);
+        if (!dir.isZero()) r = point_contact(x, y, c, *opt, dir);
       }
       record(c, r, sign > 0.0);
     }
   };
-  if (seg_ab) {
-    run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, 1.0);
-    if (options.record_contacts) record_points(contacts.nodes_a_in_b, a, b, 1.0);
-  } else {
-    run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, 1.0);
+  const auto pass = [&] {
+    if (seg_ab)
+      run(contacts.edges_a_in_b, true, a, b, sums_a_, sums_b_, 1.0);
+    else
+      run(contacts.nodes_a_in_b, false, a, b, sums_a_, sums_b_, 1.0);
+    if (seg_ba)
+      run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, -1.0);
+    else
+      run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, -1.0);
+  };
+  pass();
+  // Symmetric overlap (docs/RESPONSE.md "Coincident and symmetric overlaps"): when both
+  // objects push into each other and the pushes cancel node by node (two copies of one
+  // mesh at one place: each node's push is undone by the reaction of its twin), the
+  // depth directions cannot separate them. The pair is answered again with every
+  // contact along one separating direction: from B's contact region towards A's, or,
+  // where the two centres coincide, +x, +y or +z, whichever the overlap is thinnest in.
+  if (options.symmetric_ratio > 0.0 && active_ab > 0 && active_ba > 0 &&
+      sums_a_.magnitude() + sums_b_.magnitude() < options.symmetric_ratio * push_sum) {
+    Vec3 u = pair_direction();
+    if (u.isZero()) {
+      const ContactRegion ra = contact_region(a, contacts.marked_a, false);
+      const ContactRegion rb = contact_region(b, contacts.marked_b, false);
+      const Vec3 extent = ra.hi.cwiseMin(rb.hi) - ra.lo.cwiseMax(rb.lo);
+      Eigen::Index axis = 0;
+      if (extent.allFinite()) extent.minCoeff(&axis);
+      u = Vec3::Unit(axis);
+    }
+    ResponseOptions separating = options;
+    separating.along_pair_direction = true;
+    opt = &separating;
+    forced = u;
+    sums_a_.clear();
+    sums_b_.clear();
+    const ResponseKind used_ab = out.used_a_in_b, used_ba = out.used_b_in_a;
+    st = ResponseStats{};
+    out.point_contacts.clear();
+    out.used_a_in_b = used_ab;
+    out.used_b_in_a = used_ba;
+    st.symmetric_pairs = 1;
+    pass();
   }
-  if (seg_ba) {
-    run(contacts.edges_b_in_a, true, b, a, sums_b_, sums_a_, -1.0);
-    if (options.record_contacts) record_points(contacts.nodes_b_in_a, b, a, -1.0);
-  } else {
-    run(contacts.nodes_b_in_a, false, b, a, sums_b_, sums_a_, -1.0);
+  if (options.record_contacts) {
+    if (seg_ab) record_points(contacts.nodes_a_in_b, a, b, 1.0);
+    if (seg_ba) record_points(contacts.nodes_b_in_a, b, a, -1.0);
   }
 
   sums_a_.extract(out.a, blocks);

@@ -30,9 +30,12 @@ struct ResponseStats {
   std::size_t inverted = 0;               ///< contacts in inverted tets (processed)
   std::size_t fallback_nearest_face = 0;  ///< interpolation's gradient unusable: nearest face
   std::size_t fallback_gradient = 0;      ///< no candidate face: interpolated depth
-  std::size_t fallback_pair = 0;          ///< ... from the pair's contact centres
-  std::size_t fallback_axis = 0;          ///< ... +z
-  double max_depth = 0.0;                 ///< deepest penetration of an active contact, m
+  /// Pairs answered along one separating direction because their pushes cancelled node
+  /// by node (coincident or mirror-symmetric overlaps; ResponseOptions::symmetric_ratio).
+  std::size_t symmetric_pairs = 0;
+  std::size_t fallback_pair = 0;  ///< ... from the pair's contact centres
+  std::size_t fallback_axis = 0;  ///< ... +z
+  double max_depth = 0.0;         ///< deepest penetration of an active contact, m
 
   void add(const ResponseStats& other);
 };
@@ -116,6 +119,8 @@ class ResponseAccumulator {
     void prepare(Index n, bool blocks);
     void add(Index node, const Eigen::Vector3d& f, const Eigen::Matrix3d* k);
     void extract(ObjectForces& out, bool blocks);
+    void clear();                            ///< forgets the sums (buffers kept)
+    [[nodiscard]] double magnitude() const;  ///< sum over nodes of |force|, N
   };
   NodeSums sums_a_;
   NodeSums sums_b_;

@@ -244,6 +244,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       continue;
     }
     out.stats.contacts += response.stats.point_contacts + response.stats.segment_contacts;
+    out.stats.symmetric_pairs += response.stats.symmetric_pairs;
     out.stats.max_depth = std::max(out.stats.max_depth, response.stats.max_depth);
     for (const PointContactRecord& c : response.point_contacts)
       out.point_contacts.push_back({c.intruder_is_a ? a.name : b.name,

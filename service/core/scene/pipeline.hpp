@@ -54,7 +54,10 @@ struct FrameStats {
   std::size_t overlapping_pairs = 0;  ///< tet pairs out of the narrow phase
   std::size_t settled_nodes = 0;      ///< depth values computed (lazy)
   std::size_t contacts = 0;           ///< point + segment contacts that produced a force
-  double max_depth = 0.0;             ///< deepest interpolated penetration, metres
+  /// Object pairs whose pushes cancelled node by node (coincident or mirror-symmetric
+  /// overlaps), answered along one separating direction (docs/RESPONSE.md).
+  std::size_t symmetric_pairs = 0;
+  double max_depth = 0.0;  ///< deepest interpolated penetration, metres
 };
 
 /// An object whose input was rejected this frame (it gets no forces; others do).
