@@ -1,4 +1,5 @@
-// `tetcollide respond FILE_A FILE_B [--move-b DX DY DZ] --response point|segment|auto
+// `tetcollide respond FILE_A FILE_B [--scale-a SX SY SZ] [--scale-b SX SY SZ]
+//  [--move-b DX DY DZ] --response point|segment|auto
 //  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--stiffness K]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
@@ -22,6 +23,8 @@ struct RespondArgs {
   std::string file_a;
   std::string file_b;
   std::vector<double> move_b;
+  std::vector<double> scale_a;
+  std::vector<double> scale_b;
   std::string response = "auto";
   std::string depth = "cpfm";
   std::string broad;
@@ -54,6 +57,12 @@ int run_respond(const RespondArgs& args) {
   if (!a) return report_error(a.error());
   auto b = read_mesh(args.file_b);
   if (!b) return report_error(b.error());
+  if (args.scale_a.size() == 3)
+    a->positions = Eigen::Vector3d(args.scale_a[0], args.scale_a[1], args.scale_a[2]).asDiagonal() *
+                   a->positions;
+  if (args.scale_b.size() == 3)
+    b->positions = Eigen::Vector3d(args.scale_b[0], args.scale_b[1], args.scale_b[2]).asDiagonal() *
+                   b->positions;
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d shift(args.move_b[0], args.move_b[1], args.move_b[2]);
     b->positions.colwise() += shift;
@@ -85,10 +94,13 @@ int run_respond(const RespondArgs& args) {
     return report_error(Error{st.error().code, args.file_b + ": " + st.error().message});
 
   FrameOutput output;
-  std::vector<double> times;
+  std::vector<double> times, detect_ms, depth_ms, response_ms;
   for (int r = 0; r < std::max(1, args.repeat); ++r) {
     output = pipeline.run_frame(r, states);
     times.push_back(output.stats.total_ms);
+    detect_ms.push_back(output.stats.broad_ms + output.stats.narrow_ms);
+    depth_ms.push_back(output.stats.depth_ms);
+    response_ms.push_back(output.stats.response_ms);
   }
   for (const ObjectError& e : output.errors) return report_error(e.error);
 
@@ -144,7 +156,11 @@ int run_respond(const RespondArgs& args) {
                         {"total_force_a", {total_a.x(), total_a.y(), total_a.z()}},
                         {"total_force_b", {total_b.x(), total_b.y(), total_b.z()}},
                         {"max_depth", output.stats.max_depth},
-                        {"time_ms", time_ms}};
+                        {"time_ms", time_ms},
+                        {"stage_ms",
+                         {{"detect", median(detect_ms)},
+                          {"depth", median(depth_ms)},
+                          {"response", median(response_ms)}}}};
     if (args.exact_check)
       j["exact_check"] = {{"point_contacts", audit.contacts}, {"within_10_percent", audit.within},
                           {"beyond_1_5x", audit.beyond_1_5},  {"zero_depth", audit.zero},
@@ -185,6 +201,10 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   cmd->add_option("FILE_A", args->file_a, "Mesh of object a")->required();
   cmd->add_option("FILE_B", args->file_b, "Mesh of object b")->required();
   cmd->add_option("--move-b", args->move_b, "Translate b by DX DY DZ (metres)")->expected(3);
+  cmd->add_option("--scale-a", args->scale_a, "Scale a by SX SY SZ about the origin (first)")
+      ->expected(3);
+  cmd->add_option("--scale-b", args->scale_b, "Scale b by SX SY SZ about the origin (first)")
+      ->expected(3);
   cmd->add_option("--response", args->response, "Response: point, segment or auto")
       ->required()
       ->check(CLI::IsMember({"point", "segment", "auto"}));
