@@ -482,6 +482,8 @@ int run_demo(const DemoArgs& args) {
     }
     done = f + 1;
     progress.update(done, elapsed_ms(run_start) / done, run.books().contacts);
+    // A NaN state cannot be sent nor written: stop here (exit 1 below).
+    if (run.books().first_non_finite_frame >= 0) break;
   }
   if (recording) recorder.stop(SIGINT);
   const double run_s = elapsed_ms(run_start) / 1000.0;
@@ -579,10 +581,13 @@ int run_demo(const DemoArgs& args) {
   if (books.rejected > 0)
     failures.push_back("the service rejected " + std::to_string(books.rejected) +
                        " states (first: " + books.first_rejection + ")");
+  if (books.first_non_finite_frame >= 0)
+    failures.push_back("the state became NaN or infinite at frame " +
+                       std::to_string(books.first_non_finite_frame));
   if (books.inverted_tets > 0)
     failures.push_back(std::to_string(books.inverted_tets) + " tets inverted (first at frame " +
                        std::to_string(books.first_inverted_frame) + ")");
-  if (energy_rise > 0.05) {
+  if (energy_rise > 0.05 || !std::isfinite(books.energy_max)) {
     char msg[200];
     std::snprintf(msg, sizeof msg,
                   "the mechanical energy rose %.1f %% above its initial value (%.4g J -> max "
@@ -627,6 +632,7 @@ int run_demo(const DemoArgs& args) {
       {"kinetic_max_j", books.kinetic_max},
       {"kinetic_final_j", books.kinetic_final},
       {"inverted_tets", books.inverted_tets},
+      {"first_non_finite_frame", books.first_non_finite_frame},
       {"rejected_states", books.rejected},
       {"dropped_frames", dropped},
       {"tears", books.tears},

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tc::sim {
 
@@ -119,7 +120,9 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
     } else {
       o.body->step(scene_.dt, scene_.substeps, scene_.gravity, o.contact);
     }
-    books_.kinetic_max = std::max(books_.kinetic_max, o.body->energy(scene_.gravity).kinetic);
+    if (!o.body->positions().allFinite() || !o.body->velocities().allFinite()) {
+      if (books_.first_non_finite_frame < 0) books_.first_non_finite_frame = frame;
+    }
     // Inverted tets, each counted once (until a tear renumbers them).
     const auto& tets = o.body->rest_mesh().tets;
     const auto& x = o.body->positions();
@@ -154,7 +157,8 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
     cut.push_back(i);
   }
   const double e = mechanical_energy();
-  books_.energy_max = std::max(books_.energy_max, e);
+  books_.energy_max =
+      std::isfinite(e) ? std::max(books_.energy_max, e) : std::numeric_limits<double>::infinity();
   books_.energy_final = e;
   books_.dissipated = 0.0;
   books_.kinetic_final = 0.0;
@@ -163,6 +167,7 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
       books_.dissipated += o.body->dissipated();
       books_.kinetic_final += o.body->energy(scene_.gravity).kinetic;
     }
+  books_.kinetic_max = std::max(books_.kinetic_max, books_.kinetic_final);
   ++books_.frames;
   return cut;
 }

@@ -88,9 +88,10 @@ struct RunBooks {
   double energy_final = 0.0;
   double torn_energy = 0.0;  ///< energy the tears removed, J
   double kinetic_max = 0.0;
-  double kinetic_final = 0.0;     ///< kinetic energy after the last step, J (at rest: ~0)
-  double dissipated = 0.0;        ///< removed by the material damping, J
-  std::size_t inverted_tets = 0;  ///< distinct tets found inverted after a step
+  double kinetic_final = 0.0;  ///< kinetic energy after the last step, J (at rest: ~0)
+  double dissipated = 0.0;     ///< removed by the material damping, J
+  std::int64_t first_non_finite_frame = -1;  ///< first step giving NaN/Inf positions
+  std::size_t inverted_tets = 0;             ///< distinct tets found inverted after a step
   std::int64_t first_inverted_frame = -1;
   std::size_t rejected = 0;
   std::string first_rejection;
