@@ -284,6 +284,86 @@ std::size_t recorded_answers(const std::filesystem::path& file, std::int64_t fra
   return n;
 }
 
+/// Per-stage times of the frames whose FrameStats arrived (milliseconds), and the
+/// service's figures over the run.
+struct StageTimes {
+  std::vector<double> frames, round_trip, assembly, queue, broad, narrow, depth, response, compute,
+      publish;
+  double service_max_depth = 0.0;
+  std::uint64_t max_contacts = 0;
+  std::uint64_t dropped = 0;
+  std::string csv;  ///< stage_times.csv
+};
+
+StageTimes stage_times(const std::map<std::int64_t, client::FrameStatsEvent>& stats,
+                       const std::vector<double>& round_trip, int done) {
+  StageTimes t;
+  t.csv =
+      "frame,round_trip_ms,assembly_ms,queue_ms,broad_ms,narrow_ms,depth_ms,response_ms,"
+      "compute_ms,publish_ms,contacts,max_depth_m\n";
+  for (int f = 0; f < done && static_cast<std::size_t>(f) < round_trip.size(); ++f) {
+    const auto it = stats.find(f);
+    if (it == stats.end()) continue;
+    const auto& s = it->second;
+    const double rt = round_trip[static_cast<std::size_t>(f)];
+    t.frames.push_back(f);
+    t.round_trip.push_back(rt);
+    t.assembly.push_back(s.assembly_ms);
+    t.queue.push_back(s.queue_ms);
+    t.broad.push_back(s.broad_ms);
+    t.narrow.push_back(s.narrow_ms);
+    t.depth.push_back(s.depth_ms);
+    t.response.push_back(s.response_ms);
+    t.compute.push_back(s.compute_ms);
+    t.publish.push_back(s.publish_ms);
+    t.service_max_depth = std::max(t.service_max_depth, s.max_depth);
+    t.max_contacts = std::max<std::uint64_t>(t.max_contacts, s.contacts);
+    t.dropped = s.dropped_frames;
+    char line[256];
+    std::snprintf(line, sizeof line, "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%.6g\n",
+                  f, rt, s.assembly_ms, s.queue_ms, s.broad_ms, s.narrow_ms, s.depth_ms,
+                  s.response_ms, s.compute_ms, s.publish_ms,
+                  static_cast<unsigned long long>(s.contacts), s.max_depth);
+    t.csv += line;
+  }
+  return t;
+}
+
+/// stage_times.csv, .svg and .png under `out`.
+Status write_stage_times(const std::filesystem::path& out, const std::string& scene,
+                         const StageTimes& t) {
+  {
+    std::ofstream csv(out / "stage_times.csv");
+    csv << t.csv;
+  }
+  const std::string title = "Collision time per frame by stage (" + scene + ")";
+  {
+    std::ofstream svg(out / "stage_times.svg");
+    svg << demo::line_chart_svg(title, "frame", "milliseconds", t.frames,
+                                {{"round trip (client)", "#000000", t.round_trip},
+                                 {"compute (pipeline)", "#7f7f7f", t.compute},
+                                 {"broad phase", "#1f77b4", t.broad},
+                                 {"narrow phase", "#ff7f0e", t.narrow},
+                                 {"depth", "#2ca02c", t.depth},
+                                 {"response", "#d62728", t.response},
+                                 {"publish", "#9467bd", t.publish}});
+  }
+  const std::vector<viz::Series> lines{{"round trip (client)", t.round_trip, {0, 0, 0}},
+                                       {"compute (pipeline)", t.compute, {127, 127, 127}},
+                                       {"broad phase", t.broad, {31, 119, 180}},
+                                       {"narrow phase", t.narrow, {255, 127, 14}},
+                                       {"depth", t.depth, {44, 160, 44}},
+                                       {"response", t.response, {214, 39, 40}},
+                                       {"publish", t.publish, {148, 103, 189}}};
+  viz::PlotOptions po;
+  po.title = title;
+  po.x_label = "frame";
+  po.y_label = "milliseconds";
+  po.width = 1000;
+  po.height = 500;
+  return viz::write_png(viz::plot_lines(t.frames, lines, po), (out / "stage_times.png").string());
+}
+
 int run_demo(const DemoArgs& args) {
   // ---- the scene ----
   const auto roots = demo::data_roots();
@@ -449,8 +529,10 @@ int run_demo(const DemoArgs& args) {
          *std::max_element(scene.render_frames.begin(), scene.render_frames.end()) >= frames);
     // Local check of the service's work (how deep does any node sit in another object?)
     // every 4th contact frame, at every output and at the last frame.
-    const bool probe_due = (run.books().contacts > 0 && f % 4 == 0) || vtu_due || png_due;
-    if (auto st = run.exchange(service, f, probe_due); !st)
+    const auto probe = vtu_due || png_due ? sim::SceneRun::Probe::kYes
+                       : f % 4 == 0       ? sim::SceneRun::Probe::kIfContact
+                                          : sim::SceneRun::Probe::kNo;
+    if (auto st = run.exchange(service, f, probe); !st)
       return report_error(st.error().message, kExitFailure);
     const auto& depth = run.depth();
     if (vtu_due) {
@@ -507,72 +589,12 @@ int run_demo(const DemoArgs& args) {
   // ---- outputs ----
   if (auto st = demo::write_pvd(out / (scene.name + ".pvd"), pvd); !st)
     return report_error(st.error());
-  std::vector<double> xs, assembly, queue, broad, narrow, depth_ms, response, compute, publish;
-  double service_max_depth = 0.0;
-  std::uint64_t max_contacts = 0;
-  std::uint64_t dropped = 0;
-  {
-    std::ofstream csv(out / "stage_times.csv");
-    csv << "frame,round_trip_ms,assembly_ms,queue_ms,broad_ms,narrow_ms,depth_ms,response_ms,"
-           "compute_ms,publish_ms,contacts,max_depth_m\n";
-    for (int f = 0; f < done; ++f) {
-      const auto it = stats.find(f);
-      if (it == stats.end()) continue;
-      const auto& s = it->second;
-      xs.push_back(f);
-      assembly.push_back(s.assembly_ms);
-      queue.push_back(s.queue_ms);
-      broad.push_back(s.broad_ms);
-      narrow.push_back(s.narrow_ms);
-      depth_ms.push_back(s.depth_ms);
-      response.push_back(s.response_ms);
-      compute.push_back(s.compute_ms);
-      publish.push_back(s.publish_ms);
-      service_max_depth = std::max(service_max_depth, s.max_depth);
-      max_contacts = std::max<std::uint64_t>(max_contacts, s.contacts);
-      dropped = s.dropped_frames;
-      char line[256];
-      std::snprintf(line, sizeof line,
-                    "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%.6g\n", f,
-                    round_trip[static_cast<std::size_t>(f)], s.assembly_ms, s.queue_ms, s.broad_ms,
-                    s.narrow_ms, s.depth_ms, s.response_ms, s.compute_ms, s.publish_ms,
-                    static_cast<unsigned long long>(s.contacts), s.max_depth);
-      csv << line;
-    }
-  }
-  std::vector<double> rt_matched;
-  for (const double x : xs) rt_matched.push_back(round_trip[static_cast<std::size_t>(x)]);
-  {
-    std::ofstream svg(out / "stage_times.svg");
-    svg << demo::line_chart_svg("Collision time per frame by stage (" + scene.name + ")", "frame",
-                                "milliseconds", xs,
-                                {{"round trip (client)", "#000000", rt_matched},
-                                 {"compute (pipeline)", "#7f7f7f", compute},
-                                 {"broad phase", "#1f77b4", broad},
-                                 {"narrow phase", "#ff7f0e", narrow},
-                                 {"depth", "#2ca02c", depth_ms},
-                                 {"response", "#d62728", response},
-                                 {"publish", "#9467bd", publish}});
-  }
-  {
-    const std::vector<viz::Series> lines{{"round trip (client)", rt_matched, {0, 0, 0}},
-                                         {"compute (pipeline)", compute, {127, 127, 127}},
-                                         {"broad phase", broad, {31, 119, 180}},
-                                         {"narrow phase", narrow, {255, 127, 14}},
-                                         {"depth", depth_ms, {44, 160, 44}},
-                                         {"response", response, {214, 39, 40}},
-                                         {"publish", publish, {148, 103, 189}}};
-    viz::PlotOptions po;
-    po.title = "Collision time per frame by stage (" + scene.name + ")";
-    po.x_label = "frame";
-    po.y_label = "milliseconds";
-    po.width = 1000;
-    po.height = 500;
-    if (auto st =
-            viz::write_png(viz::plot_lines(xs, lines, po), (out / "stage_times.png").string());
-        !st)
-      return report_error(st.error());
-  }
+  const StageTimes t = stage_times(stats, round_trip, done);
+  if (auto st = write_stage_times(out, scene.name, t); !st) return report_error(st.error());
+  const auto& rt_matched = t.round_trip;
+  const double service_max_depth = t.service_max_depth;
+  const std::uint64_t max_contacts = t.max_contacts;
+  const std::uint64_t dropped = t.dropped;
   // The run's verdict: exit 1 when the service rejected a state, a tet inverted, or the
   // mechanical energy rose more than 5 % above its initial value (docs/DEMO.md).
   const double e0 = books.energy_initial;
@@ -610,14 +632,14 @@ int run_demo(const DemoArgs& args) {
       {"objects", objects.size()},
       {"collision_ms",
        {{"round_trip", stage_json(rt_matched)},
-        {"assembly", stage_json(assembly)},
-        {"queue", stage_json(queue)},
-        {"broad", stage_json(broad)},
-        {"narrow", stage_json(narrow)},
-        {"depth", stage_json(depth_ms)},
-        {"response", stage_json(response)},
-        {"compute", stage_json(compute)},
-        {"publish", stage_json(publish)}}},
+        {"assembly", stage_json(t.assembly)},
+        {"queue", stage_json(t.queue)},
+        {"broad", stage_json(t.broad)},
+        {"narrow", stage_json(t.narrow)},
+        {"depth", stage_json(t.depth)},
+        {"response", stage_json(t.response)},
+        {"compute", stage_json(t.compute)},
+        {"publish", stage_json(t.publish)}}},
       {"max_penetration_m", books.max_penetration},
       {"max_penetration_frame", books.max_penetration_frame},
       {"final_penetration_m", books.last_penetration},
@@ -662,13 +684,13 @@ int run_demo(const DemoArgs& args) {
                 demo::percentile(v, 0.99));
   };
   row("round trip (client)", rt_matched);
-  row("assembly", assembly);
-  row("broad phase", broad);
-  row("narrow phase", narrow);
-  row("depth", depth_ms);
-  row("response", response);
-  row("compute (pipeline total)", compute);
-  row("publish", publish);
+  row("assembly", t.assembly);
+  row("broad phase", t.broad);
+  row("narrow phase", t.narrow);
+  row("depth", t.depth);
+  row("response", t.response);
+  row("compute (pipeline total)", t.compute);
+  row("publish", t.publish);
   std::printf(
       "   max penetration (local, exact depth): %.3f mm at frame %lld; %.3f mm at the end\n",
       books.max_penetration * 1e3, static_cast<long long>(books.max_penetration_frame),

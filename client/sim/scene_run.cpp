@@ -51,7 +51,7 @@ double SceneRun::mechanical_energy() const {
   return e;
 }
 
-Status SceneRun::exchange(ContactService& service, std::int64_t frame, bool probe) {
+Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe probe) {
   std::vector<StateView> states;
   for (const auto& o : objects_)
     if (o.body) states.push_back({&o.spec.name, &o.body->positions(), &o.body->velocities()});
@@ -94,7 +94,7 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, bool prob
   }
   books_.contacts = contacts;
   depth_.clear();
-  if (probe) {
+  if (probe == Probe::kYes || (probe == Probe::kIfContact && contacts > 0)) {
     std::vector<const Eigen::Matrix3Xd*> xs;
     for (const auto& o : objects_) xs.push_back(&o.positions());
     depth_ = probe_.measure(xs);

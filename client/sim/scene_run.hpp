@@ -113,12 +113,16 @@ class SceneRun {
   /// Errors name the object.
   static Expected<SceneRun> create(const SceneSpec& scene);
 
+  /// When exchange() measures the penetration: never, when the answer holds contacts, or
+  /// always.
+  enum class Probe { kNo, kIfContact, kYes };
+
   /// Publishes the frame's states, waits for the answers, unpacks forces and blocks, and
-  /// when `probe` measures the penetration (depth()). Rejected states are booked (their
+  /// measures the penetration (depth()) as `probe` says. Rejected states are booked (their
   /// objects get no force). With the implicit integrator an answer with contact forces
   /// but no stiffness blocks is an error (the service must run with
   /// `pipeline.compute_stiffness: true`).
-  Status exchange(ContactService& service, std::int64_t frame, bool probe);
+  Status exchange(ContactService& service, std::int64_t frame, Probe probe);
   /// Integrates every body over one frame, books energy and inverted tets, tears
   /// over-stretched bodies and re-registers them. Returns the objects re-registered.
   Expected<std::vector<std::size_t>> advance(ContactService& service, std::int64_t frame);
