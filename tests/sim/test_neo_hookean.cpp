@@ -135,6 +135,28 @@ INSTANTIATE_TEST_SUITE_P(Deformations, NeoHookean, ::testing::ValuesIn(cases()),
                            return std::string(p.param.name);
                          });
 
+TEST(NeoHookeanProjection, AnalyticEqualsNumericalOverRandomDeformations) {
+  // 200 seeded F: mild to strong, a quarter of them inverted, some near-repeated singular
+  // values (the SVD's degenerate case).
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  int indefinite = 0;
+  for (int n = 0; n < 200; ++n) {
+    Eigen::Matrix3d f = Eigen::Matrix3d::Identity();
+    const double amount = (n % 4 == 0) ? 1e-4 : 1.0;
+    for (int i = 0; i < 9; ++i) f.data()[i] += amount * u(rng);
+    if (n % 4 == 1) f.col(2) *= -1.0;
+    const Matrix9d exact = snh_stress_derivative(f, kMu, kLambda);
+    const Matrix9d numeric = project_psd(exact);
+    const Matrix9d analytic = snh_stress_derivative_psd(f, kMu, kLambda);
+    const double scale = exact.cwiseAbs().maxCoeff();
+    EXPECT_LT((analytic - numeric).cwiseAbs().maxCoeff(), 1e-9 * scale) << "case " << n;
+    indefinite +=
+        Eigen::SelfAdjointEigenSolver<Matrix9d>(exact).eigenvalues().minCoeff() < -1e-9 * scale;
+  }
+  EXPECT_GT(indefinite, 50) << "the sweep must exercise the projection";
+}
+
 TEST(NeoHookeanProjection, ClampsNegativeEigenvaluesOnly) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g(0.0, 1.0);
