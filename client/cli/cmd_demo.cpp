@@ -655,6 +655,7 @@ int run_demo(const DemoArgs& args) {
       {"kinetic_final_j", books.kinetic_final},
       {"inverted_tets", books.inverted_tets},
       {"first_non_finite_frame", books.first_non_finite_frame},
+      {"implicit_step_failures", books.step_failures},
       {"rejected_states", books.rejected},
       {"dropped_frames", dropped},
       {"tears", books.tears},

@@ -265,7 +265,10 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
       trial = x + step * dir;
       e_trial = potential(trial);
     }
-    if (!(e_trial <= e + 1e-4 * step * slope)) break;  // no decrease: keep x
+    if (!(e_trial <= e + 1e-4 * step * slope)) {  // no decrease: keep x
+      report.line_search_failed = true;
+      break;
+    }
     x = std::move(trial);
     e = e_trial;
     report.last_update = step * dir.colwise().norm().maxCoeff() / h;

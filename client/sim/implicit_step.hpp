@@ -42,6 +42,9 @@ struct StepReport {
   /// Largest velocity change of the last Newton step (after the line search), m/s.
   double last_update = 0.0;
   bool linear_solver_failed = false;
+  /// The line search found no decrease of E along a Newton direction (the iterate was
+  /// kept; with one Newton step per frame that frame is free flight plus nothing).
+  bool line_search_failed = false;
 };
 
 class ImplicitStepper {

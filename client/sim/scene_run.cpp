@@ -117,6 +117,7 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
     if (o.stepper) {
       const auto report = o.stepper->step(*o.body, scene_.dt, scene_.gravity, o.contact, o.blocks);
       books_.newton_iterations += static_cast<std::size_t>(report.newton_iterations);
+      if (report.linear_solver_failed || report.line_search_failed) ++books_.step_failures;
     } else {
       o.body->step(scene_.dt, scene_.substeps, scene_.gravity, o.contact);
     }

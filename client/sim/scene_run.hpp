@@ -104,6 +104,8 @@ struct RunBooks {
   std::int64_t last_probe_frame = -1;
   std::size_t contacts = 0;  ///< contact nodes of the last frame
   std::size_t newton_iterations = 0;
+  /// Implicit steps whose linear solve or line search failed (0 on a healthy run).
+  std::size_t step_failures = 0;
   std::size_t frames = 0;
 };
 
