@@ -27,7 +27,7 @@ help:
 	@echo "make test-tsan-unit  the daemon's unit tests only under TSan (CI)"
 	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/asan-ubsan)"
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
-	@echo "make demo        the main job on embedded defaults"
+	@echo "make demo        the main job (daemon with contact stiffness blocks)"
 	@echo "make format      clang-format every source file"
 	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
 	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"

@@ -1,8 +1,10 @@
 // `tetcollide demo SCENE [--frames N] [--out DIR] [--domain N] [--spawn-daemon]`: a small
-// simulator (client/sim: lumped-mass FEM, symplectic Euler) that drives a running
-// tetcollided over DDS exactly as an external simulator would: it registers the
-// scene's objects, publishes every frame's node positions, waits for the contact forces
-// and integrates with them. Writes a VTK series, PNG pictures, a stage-time plot and
+// simulator (client/sim: lumped-mass FEM, backward Euler with the service's contact
+// stiffness blocks) that drives a running tetcollided over DDS exactly as an external
+// simulator would: it registers the scene's objects, publishes every frame's node
+// positions, waits for the contact forces and blocks and integrates with them. The
+// frame loop itself is sim::SceneRun (client/sim/scene_run.hpp); this file connects it to
+// the service and writes the outputs. Writes a VTK series, PNG pictures, a stage-time plot and
 // summary.json under --out (default out/<scene>/). docs/DEMO.md documents the scenes,
 // the model, the outputs and the summary keys.
 #include <signal.h>
@@ -26,6 +28,7 @@
 #include "recording.hpp"
 #include "render.hpp"
 #include "scene_file.hpp"
+#include "scene_run.hpp"
 #include "tetcollide/client.hpp"
 
 namespace tc::cli {
@@ -97,22 +100,55 @@ client::Mesh to_client_mesh(const TetMesh& m) {
   return out;
 }
 
-/// One object of the running scene.
-struct Entry {
-  sim::ObjectSpec spec;
-  std::optional<sim::Body> body;  // moving objects
-  TetMesh fixed;                  // static objects
-  client::ObjectParams params;
-  Eigen::Matrix3Xd contact;  // this frame's forces, 3 x n
-  Eigen::Matrix3Xd zero_velocity;
-  std::vector<std::array<std::int32_t, 3>> surface;  // boundary faces, for the pictures
-  [[nodiscard]] const Eigen::Matrix3Xd& positions() const {
-    return body ? body->positions() : fixed.positions;
+/// The collision service of sim::SceneRun over DDS: one publish / wait_forces round trip
+/// per frame; FrameStats and round-trip times are kept for the outputs.
+class DdsContactService final : public sim::ContactService {
+ public:
+  explicit DdsContactService(client::Client& c) : c_(c) {}
+  void set_params(const std::string& object, const client::ObjectParams& p) { params_[object] = p; }
+
+  Expected<std::map<std::string, sim::ContactAnswer>> exchange(
+      std::int64_t frame, const std::vector<sim::StateView>& states) override {
+    std::vector<client::ObjectState> out;
+    out.reserve(states.size());
+    for (const auto& s : states)
+      out.push_back({*s.object,
+                     std::span<const double>(s.positions->data(),
+                                             static_cast<std::size_t>(s.positions->size())),
+                     std::span<const double>(s.velocities->data(),
+                                             static_cast<std::size_t>(s.velocities->size()))});
+    const auto t0 = Clock::now();
+    c_.publish_states(frame, out);
+    auto answer = c_.wait_forces(frame, 20s);
+    if (!answer)
+      return Error{ErrorCode::kIo,
+                   "frame " + std::to_string(frame) + " was not answered within 20 s"};
+    round_trip.push_back(elapsed_ms(t0));
+    for (auto& st : c_.take_frame_stats()) stats[st.frame] = st;
+    std::map<std::string, sim::ContactAnswer> result;
+    for (auto& o : answer->objects)
+      result[o.object] = {o.status, client::status_name(o.status), std::move(o.nodes),
+                          std::move(o.forces), std::move(o.stiffness)};
+    return result;
   }
-  [[nodiscard]] const TetMesh& mesh() const { return body ? body->rest_mesh() : fixed; }
-  [[nodiscard]] const Eigen::Matrix3Xd& velocities() const {
-    return body ? body->velocities() : zero_velocity;
+
+  Status reregister(const std::string& object, const TetMesh& mesh) override {
+    c_.register_object(object, to_client_mesh(mesh), params_[object]);
+    const auto r = c_.wait_registered(object, 20s);
+    if (!r.done || !r.ok)
+      return Error{ErrorCode::kIo,
+                   "the service did not register version " + std::to_string(c_.version(object)) +
+                       " of '" + object +
+                       "': " + (r.done ? r.message : std::string("no verdict in 20 s"))};
+    return {};
   }
+
+  std::vector<double> round_trip;  ///< ms per answered frame
+  std::map<std::int64_t, client::FrameStatsEvent> stats;
+
+ private:
+  client::Client& c_;
+  std::map<std::string, client::ObjectParams> params_;
 };
 
 std::vector<std::array<std::int32_t, 3>> boundary_of(const TetMesh& mesh) {
@@ -120,14 +156,62 @@ std::vector<std::array<std::int32_t, 3>> boundary_of(const TetMesh& mesh) {
   return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
 }
 
+/// Writes frame `f` of every object into one unstructured grid `out/frame_NNNN.vtu`: point
+/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object.
+Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
+                       const std::vector<std::vector<double>>& depth,
+                       const std::filesystem::path& out, int f) {
+  TetMesh all;
+  Index total = 0;
+  std::size_t tets = 0;
+  for (const auto& e : objects) {
+    total += static_cast<Index>(e.positions().cols());
+    tets += e.mesh().tets.size();
+  }
+  all.positions.resize(3, total);
+  all.tets.reserve(tets);
+  VtuField fd{"depth", 1, {}};
+  VtuField ff{"force", 3, {}};
+  VtuField fv{"velocity", 3, {}};
+  VtuField fo{"object", 1, {}};
+  Index base = 0;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const auto& e = objects[i];
+    const auto& x = e.positions();
+    all.positions.middleCols(base, x.cols()) = x;
+    for (Eigen::Index n = 0; n < x.cols(); ++n) {
+      all.node_ids.push_back(n);
+      fd.values.push_back(depth.empty() ? 0.0 : depth[i][static_cast<std::size_t>(n)]);
+      for (int k = 0; k < 3; ++k) {
+        ff.values.push_back(e.contact(k, n));
+        fv.values.push_back(e.velocities()(k, n));
+      }
+    }
+    for (Tet t : e.mesh().tets) {
+      for (auto& n : t) n += base;
+      all.tets.push_back(t);
+      fo.values.push_back(static_cast<double>(i));
+    }
+    base += static_cast<Index>(x.cols());
+  }
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
+  const std::vector<VtuField> point{fd, ff, fv};
+  const std::vector<VtuField> cell{fo};
+  return write_vtu(out / name, all, point, cell);
+}
+
 /// Draws the scene's objects at their current positions into `path`.
-Status render_frame(const std::vector<Entry>& entries, const sim::SceneSpec& scene, int frame,
-                    double max_depth_mm, const std::filesystem::path& path) {
+Status render_frame(const std::vector<sim::SimObject>& objects,
+                    const std::vector<std::vector<std::array<std::int32_t, 3>>>& surface,
+                    const sim::SceneSpec& scene, int frame, double max_depth_mm,
+                    const std::filesystem::path& path) {
   std::vector<viz::Surface> surfaces;
-  for (const auto& e : entries) {
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const auto& e = objects[i];
     viz::Surface s;
     s.positions = &e.positions();
-    s.triangles = e.surface;
+    s.triangles = surface[i];
     s.base_color = e.spec.color.cast<float>();
     surfaces.push_back(std::move(s));
   }
@@ -200,6 +284,86 @@ std::size_t recorded_answers(const std::filesystem::path& file, std::int64_t fra
   return n;
 }
 
+/// Per-stage times of the frames whose FrameStats arrived (milliseconds), and the
+/// service's figures over the run.
+struct StageTimes {
+  std::vector<double> frames, round_trip, assembly, queue, broad, narrow, depth, response, compute,
+      publish;
+  double service_max_depth = 0.0;
+  std::uint64_t max_contacts = 0;
+  std::uint64_t dropped = 0;
+  std::string csv;  ///< stage_times.csv
+};
+
+StageTimes stage_times(const std::map<std::int64_t, client::FrameStatsEvent>& stats,
+                       const std::vector<double>& round_trip, int done) {
+  StageTimes t;
+  t.csv =
+      "frame,round_trip_ms,assembly_ms,queue_ms,broad_ms,narrow_ms,depth_ms,response_ms,"
+      "compute_ms,publish_ms,contacts,max_depth_m\n";
+  for (int f = 0; f < done && static_cast<std::size_t>(f) < round_trip.size(); ++f) {
+    const auto it = stats.find(f);
+    if (it == stats.end()) continue;
+    const auto& s = it->second;
+    const double rt = round_trip[static_cast<std::size_t>(f)];
+    t.frames.push_back(f);
+    t.round_trip.push_back(rt);
+    t.assembly.push_back(s.assembly_ms);
+    t.queue.push_back(s.queue_ms);
+    t.broad.push_back(s.broad_ms);
+    t.narrow.push_back(s.narrow_ms);
+    t.depth.push_back(s.depth_ms);
+    t.response.push_back(s.response_ms);
+    t.compute.push_back(s.compute_ms);
+    t.publish.push_back(s.publish_ms);
+    t.service_max_depth = std::max(t.service_max_depth, s.max_depth);
+    t.max_contacts = std::max<std::uint64_t>(t.max_contacts, s.contacts);
+    t.dropped = s.dropped_frames;
+    char line[256];
+    std::snprintf(line, sizeof line, "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%.6g\n",
+                  f, rt, s.assembly_ms, s.queue_ms, s.broad_ms, s.narrow_ms, s.depth_ms,
+                  s.response_ms, s.compute_ms, s.publish_ms,
+                  static_cast<unsigned long long>(s.contacts), s.max_depth);
+    t.csv += line;
+  }
+  return t;
+}
+
+/// stage_times.csv, .svg and .png under `out`.
+Status write_stage_times(const std::filesystem::path& out, const std::string& scene,
+                         const StageTimes& t) {
+  {
+    std::ofstream csv(out / "stage_times.csv");
+    csv << t.csv;
+  }
+  const std::string title = "Collision time per frame by stage (" + scene + ")";
+  {
+    std::ofstream svg(out / "stage_times.svg");
+    svg << demo::line_chart_svg(title, "frame", "milliseconds", t.frames,
+                                {{"round trip (client)", "#000000", t.round_trip},
+                                 {"compute (pipeline)", "#7f7f7f", t.compute},
+                                 {"broad phase", "#1f77b4", t.broad},
+                                 {"narrow phase", "#ff7f0e", t.narrow},
+                                 {"depth", "#2ca02c", t.depth},
+                                 {"response", "#d62728", t.response},
+                                 {"publish", "#9467bd", t.publish}});
+  }
+  const std::vector<viz::Series> lines{{"round trip (client)", t.round_trip, {0, 0, 0}},
+                                       {"compute (pipeline)", t.compute, {127, 127, 127}},
+                                       {"broad phase", t.broad, {31, 119, 180}},
+                                       {"narrow phase", t.narrow, {255, 127, 14}},
+                                       {"depth", t.depth, {44, 160, 44}},
+                                       {"response", t.response, {214, 39, 40}},
+                                       {"publish", t.publish, {148, 103, 189}}};
+  viz::PlotOptions po;
+  po.title = title;
+  po.x_label = "frame";
+  po.y_label = "milliseconds";
+  po.width = 1000;
+  po.height = 500;
+  return viz::write_png(viz::plot_lines(t.frames, lines, po), (out / "stage_times.png").string());
+}
+
 int run_demo(const DemoArgs& args) {
   // ---- the scene ----
   const auto roots = demo::data_roots();
@@ -231,38 +395,25 @@ int run_demo(const DemoArgs& args) {
       std::filesystem::remove(e.path(), ec);
   }
 
-  std::vector<Entry> entries;
-  for (const auto& o : scene.objects) {
-    auto mesh = sim::load_object_mesh(o);
-    if (!mesh) return report_error(Error{mesh.error().code, o.name + ": " + mesh.error().message});
-    Entry e;
-    e.spec = o;
-    e.params = to_params(o);
-    if (o.is_static) {
-      e.fixed = std::move(*mesh);
-      e.zero_velocity = Eigen::Matrix3Xd::Zero(3, e.fixed.positions.cols());
-    } else {
-      auto body = sim::Body::create(std::move(*mesh), o.material);
-      if (!body)
-        return report_error(Error{body.error().code, o.name + ": " + body.error().message});
-      Eigen::Matrix3Xd v(3, body->node_count());
-      v.colwise() = o.velocity;
-      body->set_velocities(v);
-      if (o.fix_border > 0.0) body->fix_nodes(body->border_nodes(o.fix_border, o.fix_border));
-      e.body = std::move(*body);
-    }
-    e.surface = boundary_of(e.mesh());
-    entries.push_back(std::move(e));
+  auto run_or = sim::SceneRun::create(scene);
+  if (!run_or) return report_error(run_or.error());
+  sim::SceneRun& run = *run_or;
+  const auto& objects = run.objects();
+  // Boundary faces of each object, for the pictures (recomputed after a cut).
+  std::vector<std::vector<std::array<std::int32_t, 3>>> surface;
+  for (const auto& o : objects) surface.push_back(boundary_of(o.mesh()));
+  const bool implicit = scene.integrator == "implicit";
+  if (!implicit) {
+    double stable = std::numeric_limits<double>::infinity();
+    for (const auto& o : objects)
+      if (o.body) stable = std::min(stable, o.body->stable_dt());
+    const double sub_dt = scene.dt / scene.substeps;
+    if (sub_dt > stable)
+      std::fprintf(stderr,
+                   "tetcollide: warning: substep %.3g s exceeds the elastic stability limit %.3g "
+                   "s; raise 'substeps'\n",
+                   sub_dt, stable);
   }
-  double stable = std::numeric_limits<double>::infinity();
-  for (const auto& e : entries)
-    if (e.body) stable = std::min(stable, e.body->stable_dt());
-  const double sub_dt = scene.dt / scene.substeps;
-  if (sub_dt > stable)
-    std::fprintf(stderr,
-                 "tetcollide: warning: substep %.3g s exceeds the elastic stability limit %.3g s; "
-                 "raise 'substeps'\n",
-                 sub_dt, stable);
 
   // ---- the service ----
   SignalScope signals;
@@ -276,11 +427,13 @@ int run_demo(const DemoArgs& args) {
     if (!xml.empty()) dds_config = "file://" + xml.string();
     const auto config = out / "tetcollided.yaml";
     {
+      // compute_stiffness: the implicit integrator needs the contact stiffness blocks.
       std::ofstream c(config);
       c << "# Written by tetcollide demo --spawn-daemon: the embedded defaults, a private\n"
-           "# domain and the loopback Cyclone DDS config.\nversion: 1\ndds:\n  domain: "
+           "# domain, the loopback Cyclone DDS config and the contact stiffness blocks.\n"
+           "version: 1\ndds:\n  domain: "
         << domain << "\n  cyclonedds_config: \"" << dds_config
-        << "\"\nlog:\n  timing_summary_period_s: 0\n";
+        << "\"\npipeline:\n  compute_stiffness: true\nlog:\n  timing_summary_period_s: 0\n";
     }
     const auto log = out / "tetcollided.log";
     std::filesystem::remove(log, ec);
@@ -319,50 +472,29 @@ int run_demo(const DemoArgs& args) {
                               " within 20 s (start one, or pass --spawn-daemon)",
                           kExitFailure);
   }
-  sim::PenetrationProbe probe;
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    auto& e = entries[i];
-    c->register_object(e.spec.name, to_client_mesh(e.mesh()), e.params);
-    probe.set_object(i, e.mesh().tets, e.mesh().num_nodes());
+  DdsContactService service(*c);
+  for (const auto& o : objects) {
+    service.set_params(o.spec.name, to_params(o.spec));
+    c->register_object(o.spec.name, to_client_mesh(o.mesh()), to_params(o.spec));
   }
-  for (const auto& e : entries) {
-    const auto r = c->wait_registered(e.spec.name, 20s);
+  for (const auto& o : objects) {
+    const auto r = c->wait_registered(o.spec.name, 20s);
     if (!r.done || !r.ok)
-      return report_error("the service did not register '" + e.spec.name +
+      return report_error("the service did not register '" + o.spec.name +
                               "': " + (r.done ? r.message : std::string("no verdict in 20 s")),
                           kExitFailure);
   }
 
   // ---- the run ----
   const int frames = scene.frames;
-  std::fprintf(stderr, "tetcollide: scene %s, %zu objects, %d frames of %.3g s, output %s\n",
-               scene.name.c_str(), entries.size(), frames, scene.dt, out.string().c_str());
-  std::vector<double> round_trip;
-  std::map<std::int64_t, client::FrameStatsEvent> stats;
+  std::fprintf(stderr, "tetcollide: scene %s, %zu objects, %d frames of %.3g s (%s), output %s\n",
+               scene.name.c_str(), objects.size(), frames, scene.dt, scene.integrator.c_str(),
+               out.string().c_str());
   std::vector<demo::PvdEntry> pvd;
   std::vector<std::string> pngs;
-  std::size_t rejected = 0;
-  std::string first_rejection;
-  std::size_t tears = 0;
-  std::size_t torn_tets = 0;
-  std::int64_t first_tear = -1;
-  double max_penetration = 0.0;
-  std::int64_t max_penetration_frame = -1;
-  double energy0 = 0.0;
-  double contact_work = 0.0;
-  double ke_max = 0.0;
-  const auto total_energy = [&] {
-    double e = 0.0;
-    for (const auto& en : entries)
-      if (en.body) e += en.body->energy(scene.gravity).total() + en.body->dissipated();
-    return e;
-  };
-  energy0 = total_energy();
-  double energy_drift = 0.0;
   Progress progress(frames);
   const auto run_start = Clock::now();
   int done = 0;
-  std::size_t last_contacts = 0;
   bool recording = false;
   for (int f = 0; f < frames; ++f) {
     if (g_demo_stop.load()) break;
@@ -382,109 +514,31 @@ int run_demo(const DemoArgs& args) {
       const auto until = Clock::now() + 20s;
       while (Clock::now() < until) {
         recorded_answers(args.record, -1, &topologies);
-        if (topologies >= entries.size()) break;
+        if (topologies >= objects.size()) break;
         c->poll(20ms);
       }
-      if (topologies < entries.size())
+      if (topologies < objects.size())
         return report_error("the recorder missed the topologies", kExitFailure);
       recording = true;
     }
-    std::vector<client::ObjectState> states;
-    for (const auto& e : entries)
-      if (e.body) {
-        const auto& x = e.body->positions();
-        const auto& v = e.body->velocities();
-        states.push_back({e.spec.name,
-                          std::span<const double>(x.data(), static_cast<std::size_t>(x.size())),
-                          std::span<const double>(v.data(), static_cast<std::size_t>(v.size()))});
-      }
-    const auto t0 = Clock::now();
-    c->publish_states(f, states);
-    const auto answer = c->wait_forces(f, 20s);
-    if (!answer)
-      return report_error("frame " + std::to_string(f) + " was not answered within 20 s",
-                          kExitFailure);
-    round_trip.push_back(elapsed_ms(t0));
-    for (auto& s : c->take_frame_stats()) stats[s.frame] = s;
-    std::size_t contacts = 0;
-    for (auto& e : entries) {
-      e.contact = Eigen::Matrix3Xd::Zero(3, e.positions().cols());
-      const auto* o = answer->find(e.spec.name);
-      if (o == nullptr) continue;
-      if (o->status != 0) {
-        ++rejected;
-        if (first_rejection.empty())
-          first_rejection = e.spec.name + " at frame " + std::to_string(f) + ": " +
-                            client::status_name(o->status);
-        continue;
-      }
-      for (std::size_t k = 0; k < o->nodes.size(); ++k) {
-        const Index n = o->nodes[k];
-        if (n < 0 || n >= e.contact.cols()) continue;
-        e.contact.col(n) =
-            Eigen::Vector3d(o->forces[3 * k], o->forces[3 * k + 1], o->forces[3 * k + 2]);
-      }
-      contacts += o->nodes.size();
-    }
-    last_contacts = contacts;
-    // Local check of the service's work: how deep does any node sit in another object?
     const bool vtu_due = f % scene.output_every == 0 || f == frames - 1;
     const bool png_due =
         std::find(scene.render_frames.begin(), scene.render_frames.end(), f) !=
             scene.render_frames.end() ||
         (f == frames - 1 && !scene.render_frames.empty() &&
          *std::max_element(scene.render_frames.begin(), scene.render_frames.end()) >= frames);
-    std::vector<std::vector<double>> depth;
-    if ((contacts > 0 && f % 4 == 0) || vtu_due || png_due) {
-      std::vector<const Eigen::Matrix3Xd*> xs;
-      for (const auto& e : entries) xs.push_back(&e.positions());
-      depth = probe.measure(xs);
-      for (const auto& d : depth)
-        for (const double v : d)
-          if (v > max_penetration) {
-            max_penetration = v;
-            max_penetration_frame = f;
-          }
-    }
+    // Local check of the service's work (how deep does any node sit in another object?)
+    // every 4th contact frame, at every output and at the last frame.
+    const auto probe = vtu_due || png_due ? sim::SceneRun::Probe::kYes
+                       : f % 4 == 0       ? sim::SceneRun::Probe::kIfContact
+                                          : sim::SceneRun::Probe::kNo;
+    if (auto st = run.exchange(service, f, probe); !st)
+      return report_error(st.error().message, kExitFailure);
+    const auto& depth = run.depth();
     if (vtu_due) {
-      TetMesh all;
-      Index total = 0;
-      std::size_t tets = 0;
-      for (const auto& e : entries) {
-        total += static_cast<Index>(e.positions().cols());
-        tets += e.mesh().tets.size();
-      }
-      all.positions.resize(3, total);
-      all.tets.reserve(tets);
-      VtuField fd{"depth", 1, {}};
-      VtuField ff{"force", 3, {}};
-      VtuField fv{"velocity", 3, {}};
-      VtuField fo{"object", 1, {}};
-      Index base = 0;
-      for (std::size_t i = 0; i < entries.size(); ++i) {
-        const auto& e = entries[i];
-        const auto& x = e.positions();
-        all.positions.middleCols(base, x.cols()) = x;
-        for (Eigen::Index n = 0; n < x.cols(); ++n) {
-          all.node_ids.push_back(n);
-          fd.values.push_back(depth.empty() ? 0.0 : depth[i][static_cast<std::size_t>(n)]);
-          for (int k = 0; k < 3; ++k) {
-            ff.values.push_back(e.contact(k, n));
-            fv.values.push_back(e.velocities()(k, n));
-          }
-        }
-        for (Tet t : e.mesh().tets) {
-          for (auto& n : t) n += base;
-          all.tets.push_back(t);
-          fo.values.push_back(static_cast<double>(i));
-        }
-        base += static_cast<Index>(x.cols());
-      }
+      if (auto st = write_frame_vtu(objects, depth, out, f); !st) return report_error(st.error());
       char name[32];
       std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
-      const std::vector<VtuField> point{fd, ff, fv};
-      const std::vector<VtuField> cell{fo};
-      if (auto st = write_vtu(out / name, all, point, cell); !st) return report_error(st.error());
       pvd.push_back({f * scene.dt, name});
     }
     if (png_due) {
@@ -493,53 +547,31 @@ int run_demo(const DemoArgs& args) {
       double deepest = 0.0;
       for (const auto& d : depth)
         for (const double v : d) deepest = std::max(deepest, v);
-      if (auto st = render_frame(entries, scene, f, deepest * 1e3, out / name); !st)
+      if (auto st = render_frame(objects, surface, scene, f, deepest * 1e3, out / name); !st)
         return report_error(st.error());
       pngs.push_back(name);
     }
-    // ---- integrate ----
-    for (auto& e : entries) {
-      if (!e.body) continue;
-      const Eigen::Matrix3Xd before = e.body->positions();
-      e.body->step(scene.dt, scene.substeps, scene.gravity, e.contact);
-      contact_work += (e.contact.array() * (e.body->positions() - before).array()).sum();
-      ke_max = std::max(ke_max, e.body->energy(scene.gravity).kinetic);
-    }
-    energy_drift = total_energy() - contact_work - energy0;
-    // ---- tearing: a new topology version, the states go on with it ----
-    for (std::size_t i = 0; i < entries.size(); ++i) {
-      auto& e = entries[i];
-      if (!e.body || e.spec.tear_strain <= 0.0) continue;
-      const double e_before = e.body->energy(scene.gravity).total();
-      const std::size_t removed = e.body->tear(e.spec.tear_strain);
-      if (removed == 0) continue;
-      // Energy of the removed tets leaves the books (it is not an integration error).
-      energy0 += e.body->energy(scene.gravity).total() - e_before;
-      ++tears;
-      torn_tets += removed;
-      if (first_tear < 0) first_tear = f;
-      c->register_object(e.spec.name, to_client_mesh(e.body->rest_mesh()), e.params);
-      probe.set_object(i, e.body->rest_mesh().tets, e.body->node_count());
-      e.surface = boundary_of(e.body->rest_mesh());
-      const auto r = c->wait_registered(e.spec.name, 20s);
-      if (!r.done || !r.ok)
-        return report_error("the service did not register version " +
-                                std::to_string(c->version(e.spec.name)) + " of '" + e.spec.name +
-                                "': " + (r.done ? r.message : std::string("no verdict in 20 s")),
-                            kExitFailure);
-    }
+    // ---- integrate, tear (a new topology version; the states go on with it) ----
+    auto cut = run.advance(service, f);
+    if (!cut) return report_error(cut.error().message, kExitFailure);
+    for (const std::size_t i : *cut) surface[i] = boundary_of(objects[i].mesh());
     if (recording && f == args.record_to) {
       const auto until = Clock::now() + 20s;
-      while (recorded_answers(args.record, f) < entries.size() && Clock::now() < until)
+      while (recorded_answers(args.record, f) < objects.size() && Clock::now() < until)
         c->poll(20ms);
       recorder.stop(SIGINT);
       recording = false;
     }
     done = f + 1;
-    progress.update(done, elapsed_ms(run_start) / done, contacts);
+    progress.update(done, elapsed_ms(run_start) / done, run.books().contacts);
+    // A NaN state cannot be sent nor written: stop here (exit 1 below).
+    if (run.books().first_non_finite_frame >= 0) break;
   }
   if (recording) recorder.stop(SIGINT);
   const double run_s = elapsed_ms(run_start) / 1000.0;
+  auto& stats = service.stats;
+  const auto& round_trip = service.round_trip;
+  const sim::RunBooks& books = run.books();
   // The last frame's statistics follow its forces.
   {
     const auto until = Clock::now() + 2s;
@@ -549,7 +581,7 @@ int run_demo(const DemoArgs& args) {
     }
   }
   nlohmann::json versions = nlohmann::json::object();
-  for (const auto& e : entries) versions[e.spec.name] = c->version(e.spec.name);
+  for (const auto& o : objects) versions[o.spec.name] = c->version(o.spec.name);
   c.reset();
   const int daemon_exit = args.spawn_daemon ? daemon.stop(SIGTERM) : 0;
   if (g_demo_stop.load()) std::fprintf(stderr, "\ntetcollide: interrupted after %d frames\n", done);
@@ -557,111 +589,87 @@ int run_demo(const DemoArgs& args) {
   // ---- outputs ----
   if (auto st = demo::write_pvd(out / (scene.name + ".pvd"), pvd); !st)
     return report_error(st.error());
-  std::vector<double> xs, assembly, queue, broad, narrow, depth_ms, response, compute, publish;
-  double service_max_depth = 0.0;
-  std::uint64_t max_contacts = 0;
-  std::uint64_t dropped = 0;
-  {
-    std::ofstream csv(out / "stage_times.csv");
-    csv << "frame,round_trip_ms,assembly_ms,queue_ms,broad_ms,narrow_ms,depth_ms,response_ms,"
-           "compute_ms,publish_ms,contacts,max_depth_m\n";
-    for (int f = 0; f < done; ++f) {
-      const auto it = stats.find(f);
-      if (it == stats.end()) continue;
-      const auto& s = it->second;
-      xs.push_back(f);
-      assembly.push_back(s.assembly_ms);
-      queue.push_back(s.queue_ms);
-      broad.push_back(s.broad_ms);
-      narrow.push_back(s.narrow_ms);
-      depth_ms.push_back(s.depth_ms);
-      response.push_back(s.response_ms);
-      compute.push_back(s.compute_ms);
-      publish.push_back(s.publish_ms);
-      service_max_depth = std::max(service_max_depth, s.max_depth);
-      max_contacts = std::max<std::uint64_t>(max_contacts, s.contacts);
-      dropped = s.dropped_frames;
-      char line[256];
-      std::snprintf(line, sizeof line,
-                    "%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%.6g\n", f,
-                    round_trip[static_cast<std::size_t>(f)], s.assembly_ms, s.queue_ms, s.broad_ms,
-                    s.narrow_ms, s.depth_ms, s.response_ms, s.compute_ms, s.publish_ms,
-                    static_cast<unsigned long long>(s.contacts), s.max_depth);
-      csv << line;
-    }
+  const StageTimes t = stage_times(stats, round_trip, done);
+  if (auto st = write_stage_times(out, scene.name, t); !st) return report_error(st.error());
+  const auto& rt_matched = t.round_trip;
+  const double service_max_depth = t.service_max_depth;
+  const std::uint64_t max_contacts = t.max_contacts;
+  const std::uint64_t dropped = t.dropped;
+  // The run's verdict: exit 1 when the service rejected a state, a tet inverted, or the
+  // mechanical energy rose more than 5 % above its initial value (docs/DEMO.md).
+  const double e0 = books.energy_initial;
+  const double energy_rise = (books.energy_max - e0) / std::max(std::abs(e0), 1e-12);
+  std::vector<std::string> failures;
+  if (books.rejected > 0)
+    failures.push_back("the service rejected " + std::to_string(books.rejected) +
+                       " states (first: " + books.first_rejection + ")");
+  if (books.first_non_finite_frame >= 0)
+    failures.push_back("the state became NaN or infinite at frame " +
+                       std::to_string(books.first_non_finite_frame));
+  if (books.inverted_tets > 0)
+    failures.push_back(std::to_string(books.inverted_tets) + " tets inverted (first at frame " +
+                       std::to_string(books.first_inverted_frame) + ")");
+  if (energy_rise > 0.05 || !std::isfinite(books.energy_max)) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg,
+                  "the mechanical energy rose %.1f %% above its initial value (%.4g J -> max "
+                  "%.4g J): the integration is unstable",
+                  100.0 * energy_rise, e0, books.energy_max);
+    failures.emplace_back(msg);
   }
-  std::vector<double> rt_matched;
-  for (const double x : xs) rt_matched.push_back(round_trip[static_cast<std::size_t>(x)]);
-  {
-    std::ofstream svg(out / "stage_times.svg");
-    svg << demo::line_chart_svg("Collision time per frame by stage (" + scene.name + ")", "frame",
-                                "milliseconds", xs,
-                                {{"round trip (client)", "#000000", rt_matched},
-                                 {"compute (pipeline)", "#7f7f7f", compute},
-                                 {"broad phase", "#1f77b4", broad},
-                                 {"narrow phase", "#ff7f0e", narrow},
-                                 {"depth", "#2ca02c", depth_ms},
-                                 {"response", "#d62728", response},
-                                 {"publish", "#9467bd", publish}});
-  }
-  {
-    const std::vector<viz::Series> lines{{"round trip (client)", rt_matched, {0, 0, 0}},
-                                         {"compute (pipeline)", compute, {127, 127, 127}},
-                                         {"broad phase", broad, {31, 119, 180}},
-                                         {"narrow phase", narrow, {255, 127, 14}},
-                                         {"depth", depth_ms, {44, 160, 44}},
-                                         {"response", response, {214, 39, 40}},
-                                         {"publish", publish, {148, 103, 189}}};
-    viz::PlotOptions po;
-    po.title = "Collision time per frame by stage (" + scene.name + ")";
-    po.x_label = "frame";
-    po.y_label = "milliseconds";
-    po.width = 1000;
-    po.height = 500;
-    if (auto st =
-            viz::write_png(viz::plot_lines(xs, lines, po), (out / "stage_times.png").string());
-        !st)
-      return report_error(st.error());
-  }
-  const double drift_rel = ke_max > 0.0 ? std::abs(energy_drift) / ke_max : 0.0;
-  nlohmann::json summary = {{"scene", scene.name},
-                            {"frames", done},
-                            {"frame_stats_received", stats.size()},
-                            {"dt_s", scene.dt},
-                            {"substeps", scene.substeps},
-                            {"simulated_s", done * scene.dt},
-                            {"run_s", run_s},
-                            {"objects", entries.size()},
-                            {"collision_ms",
-                             {{"round_trip", stage_json(rt_matched)},
-                              {"assembly", stage_json(assembly)},
-                              {"queue", stage_json(queue)},
-                              {"broad", stage_json(broad)},
-                              {"narrow", stage_json(narrow)},
-                              {"depth", stage_json(depth_ms)},
-                              {"response", stage_json(response)},
-                              {"compute", stage_json(compute)},
-                              {"publish", stage_json(publish)}}},
-                            {"max_penetration_m", max_penetration},
-                            {"max_penetration_frame", max_penetration_frame},
-                            {"service_max_depth_m", service_max_depth},
-                            {"max_contacts", max_contacts},
-                            {"energy_drift_j", energy_drift},
-                            {"energy_drift_rel", drift_rel},
-                            {"kinetic_max_j", ke_max},
-                            {"rejected_states", rejected},
-                            {"dropped_frames", dropped},
-                            {"tears", tears},
-                            {"torn_tets", torn_tets},
-                            {"first_tear_frame", first_tear},
-                            {"interrupted", g_demo_stop.load()},
-                            {"outputs",
-                             {{"pvd", scene.name + ".pvd"},
-                              {"vtu", pvd.size()},
-                              {"png", pngs},
-                              {"stage_times_png", "stage_times.png"},
-                              {"stage_times_csv", "stage_times.csv"},
-                              {"stage_times_svg", "stage_times.svg"}}}};
+  nlohmann::json summary = {
+      {"scene", scene.name},
+      {"frames", done},
+      {"frame_stats_received", stats.size()},
+      {"dt_s", scene.dt},
+      {"integrator", scene.integrator},
+      {"substeps", scene.substeps},
+      {"newton_iterations_mean", books.frames > 0 ? static_cast<double>(books.newton_iterations) /
+                                                        static_cast<double>(books.frames)
+                                                  : 0.0},
+      {"simulated_s", done * scene.dt},
+      {"run_s", run_s},
+      {"objects", objects.size()},
+      {"collision_ms",
+       {{"round_trip", stage_json(rt_matched)},
+        {"assembly", stage_json(t.assembly)},
+        {"queue", stage_json(t.queue)},
+        {"broad", stage_json(t.broad)},
+        {"narrow", stage_json(t.narrow)},
+        {"depth", stage_json(t.depth)},
+        {"response", stage_json(t.response)},
+        {"compute", stage_json(t.compute)},
+        {"publish", stage_json(t.publish)}}},
+      {"max_penetration_m", books.max_penetration},
+      {"max_penetration_frame", books.max_penetration_frame},
+      {"final_penetration_m", books.last_penetration},
+      {"service_max_depth_m", service_max_depth},
+      {"max_contacts", max_contacts},
+      {"energy_j",
+       {{"initial", e0},
+        {"max", books.energy_max},
+        {"final", books.energy_final},
+        {"torn", books.torn_energy},
+        {"dissipated", books.dissipated}}},
+      {"kinetic_max_j", books.kinetic_max},
+      {"kinetic_final_j", books.kinetic_final},
+      {"inverted_tets", books.inverted_tets},
+      {"first_non_finite_frame", books.first_non_finite_frame},
+      {"implicit_step_failures", books.step_failures},
+      {"rejected_states", books.rejected},
+      {"dropped_frames", dropped},
+      {"tears", books.tears},
+      {"torn_tets", books.torn_tets},
+      {"first_tear_frame", books.first_tear},
+      {"interrupted", g_demo_stop.load()},
+      {"failures", failures},
+      {"outputs",
+       {{"pvd", scene.name + ".pvd"},
+        {"vtu", pvd.size()},
+        {"png", pngs},
+        {"stage_times_png", "stage_times.png"},
+        {"stage_times_csv", "stage_times.csv"},
+        {"stage_times_svg", "stage_times.svg"}}}};
   summary["topology_versions"] = versions;
   {
     std::ofstream js(out / "summary.json");
@@ -677,34 +685,44 @@ int run_demo(const DemoArgs& args) {
                 demo::percentile(v, 0.99));
   };
   row("round trip (client)", rt_matched);
-  row("assembly", assembly);
-  row("broad phase", broad);
-  row("narrow phase", narrow);
-  row("depth", depth_ms);
-  row("response", response);
-  row("compute (pipeline total)", compute);
-  row("publish", publish);
-  std::printf("   max penetration (local, exact depth): %.3f mm at frame %lld\n",
-              max_penetration * 1e3, static_cast<long long>(max_penetration_frame));
+  row("assembly", t.assembly);
+  row("broad phase", t.broad);
+  row("narrow phase", t.narrow);
+  row("depth", t.depth);
+  row("response", t.response);
+  row("compute (pipeline total)", t.compute);
+  row("publish", t.publish);
+  std::printf(
+      "   max penetration (local, exact depth): %.3f mm at frame %lld; %.3f mm at the end\n",
+      books.max_penetration * 1e3, static_cast<long long>(books.max_penetration_frame),
+      books.last_penetration * 1e3);
   std::printf("   max depth (service FrameStats):       %.3f mm, max contacts %llu\n",
               service_max_depth * 1e3, static_cast<unsigned long long>(max_contacts));
-  std::printf("   energy drift: %.4g J (%.3g of the peak kinetic energy %.4g J)\n", energy_drift,
-              drift_rel, ke_max);
-  if (tears > 0)
-    std::printf("   tearing: %zu tets removed in %zu cuts (first at frame %lld)\n", torn_tets,
-                tears, static_cast<long long>(first_tear));
-  if (rejected > 0)
-    std::printf("   rejected states: %zu (first: %s)\n", rejected, first_rejection.c_str());
+  std::printf(
+      "   mechanical energy (J): initial %.4f, max %.4f (%+.3f %%), final %.4f (kinetic %.3g, "
+      "peak %.4g); inverted tets %zu\n",
+      e0, books.energy_max, 100.0 * energy_rise, books.energy_final, books.kinetic_final,
+      books.kinetic_max, books.inverted_tets);
+  if (books.tears > 0)
+    std::printf("   tearing: %zu tets removed in %zu cuts (first at frame %lld), %.4g J torn\n",
+                books.torn_tets, books.tears, static_cast<long long>(books.first_tear),
+                books.torn_energy);
+  if (books.rejected > 0)
+    std::printf("   rejected states: %zu (first: %s)\n", books.rejected,
+                books.first_rejection.c_str());
   std::printf("   outputs in %s/:\n", out.string().c_str());
   std::printf(
       "     %s.pvd + %zu frame_NNNN.vtu (ParaView; fields depth, force, velocity, object)\n",
       scene.name.c_str(), pvd.size());
   for (const auto& p : pngs) std::printf("     %s\n", p.c_str());
   std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
-  (void)last_contacts;
   if (args.spawn_daemon && daemon_exit != 0)
     std::fprintf(stderr, "tetcollide: warning: tetcollided exited with %d\n", daemon_exit);
   if (g_demo_stop.load()) return kExitFailure;
+  if (!failures.empty()) {
+    for (const auto& f : failures) std::fprintf(stderr, "tetcollide: demo failed: %s\n", f.c_str());
+    return kExitFailure;
+  }
   return kExitOk;
 }
 

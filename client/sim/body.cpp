@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include "neo_hookean.hpp"
+
 namespace tc::sim {
 namespace {
 
@@ -14,15 +16,6 @@ Eigen::Matrix3d edge_matrix(const Eigen::Matrix3Xd& x, const Tet& t) {
   d.col(1) = x.col(t[2]) - x.col(t[0]);
   d.col(2) = x.col(t[3]) - x.col(t[0]);
   return d;
-}
-
-/// Cofactor matrix of F = dJ/dF.
-Eigen::Matrix3d cofactor(const Eigen::Matrix3d& f) {
-  Eigen::Matrix3d c;
-  c.col(0) = f.col(1).cross(f.col(2));
-  c.col(1) = f.col(2).cross(f.col(0));
-  c.col(2) = f.col(0).cross(f.col(1));
-  return c;
 }
 
 }  // namespace
@@ -213,6 +206,13 @@ Energy Body::energy(const Eigen::Vector3d& gravity) const {
     e.gravity -= mass_[n] * gravity.dot(x_.col(n));
   }
   return e;
+}
+
+std::size_t Body::inverted_tets() const {
+  std::size_t n = 0;
+  for (const Tet& t : rest_.tets)
+    if (!(edge_matrix(x_, t).determinant() > 0.0)) ++n;
+  return n;
 }
 
 double Body::stable_dt() const {

@@ -1,7 +1,8 @@
 // A deformable (or static) tetrahedral body for the demo simulator: lumped-mass
 // hyperelastic FEM (stable Neo-Hookean, Smith, de Goes and Kim 2018, without the log
-// term), integrated with symplectic (semi-implicit) Euler in substeps. Contact forces
-// come from outside (the collision service) and are held constant over one frame.
+// term). step() integrates with symplectic (semi-implicit) Euler in substeps, contact
+// forces held constant over one frame; ImplicitStepper (implicit_step.hpp) integrates
+// with backward Euler and the service's contact stiffness blocks (the demo's default).
 // docs/DEMO.md explains the model and why it was chosen.
 //
 //   auto body = tc::sim::Body::create(mesh, {.density = 1000, .young = 2e5});
@@ -81,6 +82,19 @@ class Body {
   /// Smallest time step explicit integration takes safely for the elastic forces
   /// (CFL-like: shortest tet altitude over the dilatational wave speed), seconds.
   [[nodiscard]] double stable_dt() const;
+
+  // For integrators outside this class (implicit_step.hpp):
+  /// Inverse rest edge matrices, one per tet.
+  [[nodiscard]] const std::vector<Eigen::Matrix3d>& dm_inv() const { return dm_inv_; }
+  /// Rest volumes, one per tet, m^3.
+  [[nodiscard]] const std::vector<double>& volumes() const { return volume_; }
+  /// Stable Neo-Hookean parameters, Pa (lambda = Lame lambda + mu).
+  [[nodiscard]] double mu() const { return mu_; }
+  [[nodiscard]] double lambda() const { return lambda_; }
+  /// Books energy removed by damping outside step() (joules).
+  void add_dissipated(double joules) { dissipated_ += joules; }
+  /// Number of tets with det F <= 0 (inverted or flat) in the current state.
+  [[nodiscard]] std::size_t inverted_tets() const;
 
  private:
   Body() = default;

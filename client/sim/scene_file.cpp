@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -142,8 +143,9 @@ class Parser {
   SceneSpec scene(const YAML::Node& root) const {
     if (!root.IsMap()) fail(root, "a scene file is a mapping (version, name, objects, ...)");
     check_keys(root,
-               {"version", "name", "description", "dt", "substeps", "frames", "gravity",
-                "output_every", "render_frames", "image", "camera", "objects", "rain"},
+               {"version", "name", "description", "dt", "integrator", "substeps",
+                "newton_iterations", "linear_solver", "frames", "gravity", "output_every",
+                "render_frames", "image", "camera", "objects", "rain"},
                "the scene");
     if (get<int>(root, "version", 0) != 1) fail(root["version"], "'version: 1' is required");
     SceneSpec s;
@@ -154,7 +156,15 @@ class Parser {
         fail(root["name"], "'name' may hold letters, digits, '_' and '-' only");
     s.description = get<std::string>(root, "description", "");
     s.dt = number(root, "dt", s.dt, 1e-6, 0.1);
+    s.integrator = get<std::string>(root, "integrator", s.integrator);
+    if (s.integrator != "implicit" && s.integrator != "explicit")
+      fail(root["integrator"], "'integrator' must be implicit or explicit");
     s.substeps = static_cast<int>(number(root, "substeps", s.substeps, 1, 1000));
+    s.newton_iterations =
+        static_cast<int>(number(root, "newton_iterations", s.newton_iterations, 1, 100));
+    s.linear_solver = get<std::string>(root, "linear_solver", s.linear_solver);
+    if (s.linear_solver != "cg" && s.linear_solver != "ldlt")
+      fail(root["linear_solver"], "'linear_solver' must be cg or ldlt");
     s.frames = static_cast<int>(number(root, "frames", s.frames, 1, 1e7));
     s.gravity = vec3(root, "gravity", s.gravity);
     s.output_every = static_cast<int>(number(root, "output_every", s.output_every, 1, 1e7));
@@ -199,17 +209,41 @@ class Parser {
       rain.seed = static_cast<std::uint64_t>(number(r, "seed", 1, 0, 1e15));
       if (!(rain.region_min.array() <= rain.region_max.array()).all())
         fail(r, "'region_min' must be <= 'region_max'");
+      // The copies' bounding spheres (about the mesh origin, which rotation keeps).
+      if (auto mesh = read_mesh(rain.object.mesh); mesh) {
+        for (Eigen::Index n = 0; n < mesh->positions.cols(); ++n)
+          rain.radius = std::max(rain.radius, mesh->positions.col(n).norm());
+        rain.radius *= rain.object.scale;
+      } else {
+        fail(r["object"]["mesh"], mesh.error().message, mesh.error().code);
+      }
       // Deterministic drops: the same seed gives the same rain on every machine
-      // (mt19937_64 is specified; the doubles are made from its integers here).
+      // (mt19937_64 is specified; the doubles are made from its integers here). A
+      // candidate place closer than 2 radii to an earlier drop is rejected (up to
+      // kAttempts candidates per drop), so no two copies start overlapping.
       std::mt19937_64 rng(rain.seed);
       const auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+      constexpr int kAttempts = 10000;
+      std::vector<Eigen::Vector3d> placed;
       for (int i = 0; i < rain.count; ++i) {
         ObjectSpec o = rain.object;
         char suffix[16];
         std::snprintf(suffix, sizeof suffix, "_%03d", i);
         o.name = rain.object.name + suffix;
-        for (int k = 0; k < 3; ++k)
-          o.translate[k] = rain.region_min[k] + unit() * (rain.region_max[k] - rain.region_min[k]);
+        bool free = false;
+        for (int attempt = 0; attempt < kAttempts && !free; ++attempt) {
+          for (int k = 0; k < 3; ++k)
+            o.translate[k] =
+                rain.region_min[k] + unit() * (rain.region_max[k] - rain.region_min[k]);
+          free = std::all_of(placed.begin(), placed.end(), [&](const Eigen::Vector3d& p) {
+            return (p - o.translate).norm() >= 2.0 * rain.radius;
+          });
+        }
+        if (!free)
+          fail(r, "the rain region cannot hold " + std::to_string(rain.count) +
+                      " copies without overlaps (bounding radius " + std::to_string(rain.radius) +
+                      " m); enlarge it or lower 'count'");
+        placed.push_back(o.translate);
         for (int k = 0; k < 3; ++k) o.rotate_deg[k] = 360.0 * unit();
         s.objects.push_back(o);
       }

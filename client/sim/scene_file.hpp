@@ -49,6 +49,9 @@ struct RainSpec {
   Eigen::Vector3d region_min = Eigen::Vector3d::Zero();
   Eigen::Vector3d region_max = Eigen::Vector3d::Zero();
   std::uint64_t seed = 1;
+  /// Bounding radius of the (scaled) mesh about its origin, m: drops closer than twice
+  /// this are rejected, so no two copies start overlapping.
+  double radius = 0.0;
 };
 
 struct CameraSpec {
@@ -63,7 +66,12 @@ struct SceneSpec {
   std::string name;  ///< DDS scene name and output folder name
   std::string description;
   double dt = 1e-3;  ///< frame time step, s (one service round trip per frame)
-  int substeps = 8;  ///< elastic substeps per frame
+  /// "implicit" (backward Euler with the service's stiffness blocks, implicit_step.hpp)
+  /// or "explicit" (symplectic Euler in `substeps`, contact forces held over the frame).
+  std::string integrator = "implicit";
+  int substeps = 8;                  ///< explicit only: elastic substeps per frame
+  int newton_iterations = 4;         ///< implicit only: at most this many Newton steps per frame
+  std::string linear_solver = "cg";  ///< implicit only: "cg" or "ldlt" (implicit_step.hpp)
   int frames = 500;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
   int output_every = 10;           ///< a VTU every this many frames (and the last)

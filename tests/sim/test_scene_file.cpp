@@ -33,11 +33,13 @@ objects:
 )";
 
 TEST(SceneFile, CommittedScenesParse) {
-  for (const char* name : {"torus_on_box", "ellipsoid_rain", "tissue_tear"}) {
+  for (const char* name : {"torus_on_box", "torus_on_box_k1e5", "torus_on_box_k1e6",
+                           "ellipsoid_rain", "tissue_tear"}) {
     SCOPED_TRACE(name);
     const auto s = load_scene_file(kRoot / "config" / "scenes" / (std::string(name) + ".yaml"), {});
     ASSERT_TRUE(s) << s.error().message;
     EXPECT_EQ(s->name, name);
+    EXPECT_EQ(s->integrator, "implicit");
     EXPECT_GT(s->frames, 0);
     EXPECT_FALSE(s->render_frames.empty());
     for (const auto& o : s->objects) EXPECT_TRUE(std::filesystem::exists(o.mesh)) << o.mesh;
@@ -82,6 +84,34 @@ TEST(SceneFile, RainIsDeterministic) {
     EXPECT_TRUE((a->objects[i].translate.array() <= a->rain->region_max.array()).all());
   }
   EXPECT_NE(a->objects[1].translate, a->objects[2].translate);
+}
+
+TEST(SceneFile, RainCopiesDoNotOverlap) {
+  const auto s = load_scene_file(kRoot / "config" / "scenes" / "ellipsoid_rain.yaml", {});
+  ASSERT_TRUE(s && s->rain);
+  const double r = s->rain->radius;
+  ASSERT_GT(r, 0.0);
+  // The radius bounds every placed mesh about its translation, and no two bounding
+  // spheres meet, so no two copies overlap.
+  for (std::size_t i = 1; i < s->objects.size(); ++i) {
+    const auto m = load_object_mesh(s->objects[i]);
+    ASSERT_TRUE(m);
+    const Eigen::Matrix3Xd rel = m->positions.colwise() - s->objects[i].translate;
+    EXPECT_LE(rel.colwise().norm().maxCoeff(), r * (1.0 + 1e-12));
+  }
+  for (std::size_t i = 1; i < s->objects.size(); ++i)
+    for (std::size_t j = i + 1; j < s->objects.size(); ++j)
+      EXPECT_GE((s->objects[i].translate - s->objects[j].translate).norm(), 2.0 * r)
+          << s->objects[i].name << " " << s->objects[j].name;
+  // A region too small for the count is a clear error.
+  const auto crowded = parse_scene(
+      "version: 1\nname: crowd\nobjects:\n  - {name: box, mesh: data/meshes/box.msh, static: "
+      "true}\nrain:\n  count: 20\n  region_min: [0, 0, 0]\n  region_max: [0.1, 0.1, 0.1]\n"
+      "  object: {name: e, mesh: data/meshes/ellipsoid.msh}\n",
+      "crowd.yaml", {kRoot});
+  ASSERT_FALSE(crowded);
+  EXPECT_NE(crowded.error().message.find("without overlaps"), std::string::npos)
+      << crowded.error().message;
 }
 
 struct BadCase {
