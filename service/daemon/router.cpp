@@ -74,12 +74,16 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
 }
 
 void Router::answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
-                        std::uint32_t version, std::int32_t code) {
+                        std::int32_t code) {
+  // Like every rejected answer (docs/PROTOCOL.md, ContactForces): topology_version is the
+  // version the service holds for the object (0: none), answer_id 0, no arrays.
+  const SceneRegistry* reg = registry(scene);
+  const VersionInfo* current = reg == nullptr ? nullptr : reg->current(object);
   ForcesMessage f;
   f.scene = scene;
   f.object = object;
   f.frame = frame;
-  f.topology_version = version;
+  f.topology_version = current == nullptr ? 0 : current->version;
   f.status = code;
   f.state_frame = frame;
   outbox_.publish_forces(f);
@@ -184,7 +188,7 @@ void Router::on_state(const StateView& s, Clock::time_point now) {
       try_dispatch(it->first, it->second, now);
     } else if (validate_name(s.scene, tetcollide_MAX_SCENE_NAME, "scene") &&
                validate_name(s.object, tetcollide_MAX_OBJECT_NAME, "object")) {
-      answer_now(s.scene, s.object, s.frame, s.topology_version, code);
+      answer_now(s.scene, s.object, s.frame, code);
     }
     return;
   }
@@ -293,7 +297,7 @@ void Router::hold(const StateView& s, Clock::time_point now) {
                                 ": no topology for this object (and too many states held)";
     report(tetcollide_STATUS_UNKNOWN_OBJECT, s.scene, s.object, s.topology_version, s.frame,
            message, now);
-    answer_now(s.scene, s.object, s.frame, s.topology_version, tetcollide_STATUS_UNKNOWN_OBJECT);
+    answer_now(s.scene, s.object, s.frame, tetcollide_STATUS_UNKNOWN_OBJECT);
     return;
   }
   Held& h = held_[key];
@@ -348,7 +352,7 @@ void Router::tick(Clock::time_point now) {
       view.topology_version = it->second.version;
       add_rejected(scene->second, view, code, message, it->second.received);
     } else {
-      answer_now(scene_name, object, it->second.frame, it->second.version, code);
+      answer_now(scene_name, object, it->second.frame, code);
     }
     it = held_.erase(it);
   }
