@@ -60,6 +60,8 @@ void SceneRunner::run(SceneJob& job) {
           run_topology(j);
         } else if constexpr (std::is_same_v<T, RemoveJob>) {
           run_remove(j);
+        } else if constexpr (std::is_same_v<T, VerdictJob>) {
+          run_verdict(j);
         } else {
           run_frame(j);
         }
@@ -89,6 +91,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
   msg.topology_timestamp = job.source_timestamp;
   if (st) {
     active_[job.object] = job.version;
+    failed_.erase(job.object);
     // A new version has no state yet: the pipeline leaves the object out of contact
     // until its first state of this version (ContactForces.left_out).
     state_frame_.erase(job.object);
@@ -105,6 +108,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
     msg.message =
         "topology version " + std::to_string(job.version) + " rejected: " + st.error().message;
     spdlog::warn("{}/{}: {}", scene_, job.object, msg.message);
+    failed_[job.object] = FailedBuild{job.version, msg.code, msg.message};
   }
   outbox_.publish_status(msg);
   if (on_topology_) on_topology_(TopologyResult{scene_, job.object, job.version, st.ok()});
@@ -130,6 +134,33 @@ void SceneRunner::run_remove(const RemoveJob& job) {
   active_.erase(it);
   state_frame_.erase(job.object);
   spdlog::info("{}/{}: removed", scene_, job.object);
+  outbox_.publish_status(msg);
+}
+
+void SceneRunner::run_verdict(const VerdictJob& job) {
+  StatusMessage msg;
+  msg.scene = scene_;
+  msg.object = job.object;
+  msg.topology_version = job.version;
+  msg.topology_timestamp = job.source_timestamp;
+  const auto active = active_.find(job.object);
+  const auto failed = failed_.find(job.object);
+  if (active != active_.end() && active->second == job.version) {
+    msg.kind = StatusKind::kRegistered;
+    msg.code = tetcollide_STATUS_OK;
+    msg.message = "topology version " + std::to_string(job.version) +
+                  " unchanged: already registered with the same content (not rebuilt)";
+  } else if (failed != failed_.end() && failed->second.version == job.version) {
+    msg.kind = StatusKind::kError;
+    msg.code = failed->second.code;
+    msg.message = failed->second.message + " (re-sent unchanged)";
+  } else {
+    msg.kind = StatusKind::kError;
+    msg.code = tetcollide_STATUS_UNKNOWN_OBJECT;
+    msg.message = "topology version " + std::to_string(job.version) +
+                  " re-sent unchanged, but the object was removed before it was judged";
+  }
+  spdlog::debug("{}/{}: {}", scene_, job.object, msg.message);
   outbox_.publish_status(msg);
 }
 

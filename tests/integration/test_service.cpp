@@ -668,6 +668,56 @@ TEST_F(ServiceTest, RejectedAnswersAreAlikeAndEveryReaderSeesEveryScene) {
   EXPECT_TRUE(raw.wait([](const RawForces& f) { return f.scene == "someone-else"; }));
 }
 
+// Issue 14, point 3: every MeshTopology write gets a verdict matched to it, a re-sent
+// version too ("Life of a client", step 3, waits for it).
+TEST_F(ServiceTest, ReSendingTheSameVersionGetsAVerdict) {
+  auto c = connect("resend");
+  const client::Mesh x = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+  ASSERT_EQ(c->register_object("x", x, {}), 1u);
+  ASSERT_TRUE(c->wait_registered("x", 10s).ok);
+  // The same version and content again: REGISTERED again, not rebuilt.
+  ASSERT_EQ(c->register_object("x", x, {}, 1), 1u);
+  const auto again = c->wait_registered("x", 10s);
+  ASSERT_TRUE(again.done) << "no verdict on a re-sent version";
+  EXPECT_TRUE(again.ok) << again.message;
+  EXPECT_NE(again.message.find("unchanged"), std::string::npos) << again.message;
+  // Sent right after the first write (verdict still pending): both get their verdict.
+  const client::Mesh y = box_mesh(2, {3, 0, 0}, {4, 1, 1});
+  ASSERT_EQ(c->register_object("y", y, {}), 1u);
+  ASSERT_EQ(c->register_object("y", y, {}, 1), 1u);
+  const auto y_again = c->wait_registered("y", 10s);
+  ASSERT_TRUE(y_again.done);
+  EXPECT_TRUE(y_again.ok) << y_again.message;
+  // The same version with another content: an error, the registered version stays.
+  client::ObjectParams stiffer;
+  stiffer.stiffness = 2e4;
+  ASSERT_EQ(c->register_object("x", x, stiffer, 1), 1u);
+  const auto changed = c->wait_registered("x", 10s);
+  ASSERT_TRUE(changed.done);
+  EXPECT_FALSE(changed.ok);
+  EXPECT_EQ(changed.code, static_cast<int>(StatusCode::kInvalidArgument)) << changed.message;
+  EXPECT_NE(changed.message.find("different content"), std::string::npos) << changed.message;
+  // A rejected version re-sent unchanged is rejected again, with its reason (whether the
+  // re-send arrives while the first build runs or after it failed).
+  client::Mesh inverted = box_mesh(1, {6, 0, 0}, {7, 1, 1});
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  ASSERT_EQ(c->register_object("z", inverted, {}), 1u);
+  ASSERT_EQ(c->register_object("z", inverted, {}, 1), 1u);
+  const auto bad = c->wait_registered("z", 10s);
+  ASSERT_TRUE(bad.done);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_EQ(bad.code, static_cast<int>(StatusCode::kInvalidMesh)) << bad.message;
+  // x's version 1 is still what the scene holds.
+  const auto px = translated(x, {0, 0, 0});
+  const auto py = translated(y, {0, 0, 0});
+  c->publish_states(0, {{"x", px}, {"y", py}});
+  const auto forces = c->wait_forces(0, 5s);
+  ASSERT_TRUE(forces && forces->frame == 0);
+  ASSERT_NE(forces->find("x"), nullptr);
+  EXPECT_EQ(forces->find("x")->status, 0);
+  EXPECT_EQ(forces->find("x")->topology_version, 1u);
+}
+
 }  // namespace
 }  // namespace tc::itest
 

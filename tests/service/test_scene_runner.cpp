@@ -213,6 +213,32 @@ TEST_F(SceneRunnerTest, AnObjectWithoutAStateOfItsVersionIsLeftOut) {
   EXPECT_TRUE(answers[0].left_out.empty());
 }
 
+// A re-sent topology version gets a verdict of its own, after the version's build.
+TEST_F(SceneRunnerTest, AReSentVersionGetsAVerdict) {
+  add("a", 1, box_at(0.0));
+  TetMesh inverted = box_at(3.0);
+  std::swap(inverted.tets[3][0], inverted.tets[3][1]);
+  add("a", 2, inverted);  // rejected; version 1 stays
+  const auto verdict = [&](std::uint32_t version, std::int64_t timestamp) {
+    SceneJob job = VerdictJob{"a", version, timestamp};
+    runner_.run(job);
+    return outbox_.status.back();
+  };
+  const StatusMessage v1 = verdict(1, 111);
+  EXPECT_EQ(v1.kind, StatusKind::kRegistered);
+  EXPECT_EQ(v1.topology_version, 1u);
+  EXPECT_EQ(v1.topology_timestamp, 111);
+  EXPECT_NE(v1.message.find("unchanged"), std::string::npos) << v1.message;
+  const StatusMessage v2 = verdict(2, 222);
+  EXPECT_EQ(v2.kind, StatusKind::kError);
+  EXPECT_EQ(v2.code, tetcollide_STATUS_INVALID_MESH);
+  EXPECT_EQ(v2.topology_timestamp, 222);
+  SceneJob remove = RemoveJob{"a"};
+  runner_.run(remove);
+  const StatusMessage gone = verdict(1, 333);
+  EXPECT_EQ(gone.kind, StatusKind::kError);
+  EXPECT_EQ(gone.code, tetcollide_STATUS_UNKNOWN_OBJECT);
+}
 
 TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {
   add("a", 1, box_at(0.0));
