@@ -718,6 +718,73 @@ TEST_F(ServiceTest, ReSendingTheSameVersionGetsAVerdict) {
   EXPECT_EQ(forces->find("x")->topology_version, 1u);
 }
 
+// Issue 14, point 2: PROTOCOL.md promises a late ServiceStatus reader the service's
+// newest 32 samples (transient-local, KEEP_LAST 32); a writer without a matching
+// durability_service depth gave it only the newest one.
+TEST_F(ServiceTest, ALateStatusReaderGetsTheNewest32Samples) {
+  // Heartbeats every hour: the samples written during the test are the test's own.
+  std::string config = kConfig;
+  config.replace(config.find("status_period_s: 0.2"), 20, "status_period_s: 3600");
+  daemon_.reset();
+  daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, config);
+  ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  const auto late_reader = [&](std::size_t expect) {
+    auto late = connect("history-reader");
+    std::vector<client::StatusEvent> events;
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (events.size() < expect && std::chrono::steady_clock::now() < deadline) {
+      for (auto& e : late->take_status_events()) events.push_back(std::move(e));
+      late->poll(20ms);
+    }
+    late->poll(300ms);  // nothing beyond the history arrives
+    for (auto& e : late->take_status_events()) events.push_back(std::move(e));
+    return events;
+  };
+  {
+    auto c = connect("history");
+    for (const char* o : {"a", "b", "c"}) {
+      c->register_object(o, box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+      ASSERT_TRUE(c->wait_registered(o, 10s).ok) << o;
+    }
+    client::Mesh inverted = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+    std::swap(inverted.tets[0], inverted.tets[1]);
+    c->register_object("bad", inverted, {});
+    ASSERT_FALSE(c->wait_registered("bad", 10s).ok);
+    // Keep c (and its objects) until the late reader looked: no removals yet.
+    const auto events = late_reader(6);
+    // STARTING, READY, 3 registrations, 1 error: everything the service wrote.
+    ASSERT_EQ(events.size(), 6u);
+    for (std::size_t i = 1; i < events.size(); ++i)
+      EXPECT_EQ(events[i].sequence_number, events[i - 1].sequence_number + 1);
+    EXPECT_EQ(events[1].kind, client::StatusEvent::Kind::kStateChange);
+    EXPECT_EQ(events[1].state, client::StatusEvent::State::kReady);
+    std::set<std::string> registered;
+    for (const auto& e : events)
+      if (e.kind == client::StatusEvent::Kind::kRegistered) registered.insert(e.object);
+    EXPECT_EQ(registered, (std::set<std::string>{"a", "b", "c"}));
+    EXPECT_EQ(events.back().kind, client::StatusEvent::Kind::kError);
+    EXPECT_EQ(events.back().object, "bad");
+  }
+  // c's objects leave with it (3 REMOVED samples would otherwise interleave below).
+  for (const std::string line : {"history/a: removed", "history/b: removed", "history/c: removed"})
+    ASSERT_TRUE(daemon_->wait_for_log(line, 10s)) << line;
+  // More than 32 samples: a late reader gets exactly the newest 32, in order.
+  auto c = connect("history-2");
+  const client::Mesh m = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+  for (int i = 0; i < 40; ++i) {
+    const std::string o = std::string("o").append(std::to_string(i));
+    c->register_object(o, m, {});
+    ASSERT_TRUE(c->wait_registered(o, 10s).ok) << o;
+  }
+  const auto events = late_reader(32);
+  ASSERT_EQ(events.size(), 32u);
+  for (std::size_t i = 1; i < events.size(); ++i)
+    EXPECT_EQ(events[i].sequence_number, events[i - 1].sequence_number + 1);
+  EXPECT_EQ(events.back().kind, client::StatusEvent::Kind::kRegistered);
+  EXPECT_EQ(events.back().object, "o39");
+  EXPECT_EQ(events.back().state, client::StatusEvent::State::kReady);
+}
+
 }  // namespace
 }  // namespace tc::itest
 
