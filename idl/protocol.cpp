@@ -46,6 +46,9 @@ QosPtr topic_qos(Topic topic) {
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
       dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kTopologyDepth);
+      // Late readers (a restarted service) get the same depth (durability_service).
+      dds_qset_durability_service(qos.get(), 0, DDS_HISTORY_KEEP_LAST, kTopologyDepth,
+                                  DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
       break;
     case Topic::kState:
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
@@ -66,6 +69,11 @@ QosPtr topic_qos(Topic topic) {
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
       dds_qset_durability(qos.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStatusDepth);
+      // What a transient-local writer keeps for readers that join later is its
+      // durability_service history, not its history: without this, Cyclone (default
+      // KEEP_LAST 1) gave a late reader only the newest status sample (issue 14).
+      dds_qset_durability_service(qos.get(), 0, DDS_HISTORY_KEEP_LAST, kStatusDepth,
+                                  DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
       break;
   }
   // Every writer asserts its liveliness automatically (its participant does, while the

@@ -223,6 +223,8 @@ struct Client::Impl {
           f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
           f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
           f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
+          for (std::uint32_t k = 0; k < s->left_out._length; ++k)
+            f.left_out.emplace_back(protocol::bounded_view(s->left_out._buffer[k]));
           auto& frame_answers = answers[s->frame];
           // The other objects' answers of that same computation were computed without the
           // missing state too (with its object's older positions), so answers of two

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <vector>
+
 #include "protocol.hpp"
 #include "tetcollide.h"
 
@@ -43,6 +45,15 @@ void copy_cut(char (&field)[N], std::string_view text) {
   if (text.size() >= N) text = text.substr(0, N - 1);
   if (!protocol::copy_bounded(field, text)) field[0] = '\0';
 }
+
+/// An element of ContactForces.left_out: a sequence of char[MAX_OBJECT_NAME + 1].
+struct WireObjectName {
+  using Text = char[tetcollide_MAX_OBJECT_NAME + 1];
+  Text text;
+};
+static_assert(sizeof(WireObjectName) == sizeof(WireObjectName::Text) &&
+                  alignof(WireObjectName) == 1,
+              "a vector of WireObjectName must be laid out as the wire's array of names");
 
 Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol::Topic topic,
                      dds_entity_t& out) {
@@ -98,6 +109,12 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   protocol::borrow(s.nodes, const_cast<Index*>(m.nodes.data()), m.nodes.size());
   protocol::borrow(s.forces, const_cast<double*>(m.forces.data()), m.forces.size());
   protocol::borrow(s.stiffness, const_cast<double*>(m.stiffness.data()), m.stiffness.size());
+  // One wire name per left-out object; the names were checked on input (at most
+  // MAX_OBJECT_NAME bytes), so none is cut here.
+  std::vector<WireObjectName> left_out(m.left_out.size());
+  for (std::size_t i = 0; i < left_out.size(); ++i) copy_cut(left_out[i].text, m.left_out[i]);
+  protocol::borrow(s.left_out, reinterpret_cast<WireObjectName::Text*>(left_out.data()),
+                   left_out.size());
   if (const dds_return_t rc = dds_write(forces_writer_, &s); rc < 0)
     write_failed("ContactForces", rc);
 }

@@ -7,6 +7,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/mesh/tet_mesh.hpp"
 #include "core/scene/pipeline.hpp"
@@ -26,8 +27,11 @@ struct ForcesMessage {
   /// Frame of the object's state the forces were computed from (-1: rest positions).
   std::int64_t state_frame = -1;
   /// The computation that produced this answer, shared by every answer of one frame
-  /// computation (ContactForces.answer_id); 0 when not from a computation.
+  /// computation with status OK (ContactForces.answer_id); 0 for rejected answers.
   std::uint64_t answer_id = 0;
+  /// Moving objects of the scene the computation left out (no state of their current
+  /// topology version), sorted by name; empty in rejected answers.
+  std::span<const std::string> left_out;
 };
 
 /// One scene's frame timings and counts (FrameStats topic).

@@ -17,6 +17,9 @@ struct VersionInfo {
   std::uint32_t version = 0;
   Index nodes = 0;
   bool is_static = false;
+  /// Hash of the sample's content (ids, rest positions, tets, parameters): tells a re-sent
+  /// version from a different topology under the same version number.
+  std::uint64_t content_hash = 0;
 };
 
 class SceneRegistry {

@@ -3,6 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
+#include <span>
 
 #include "protocol.hpp"
 #include "tetcollide.h"
@@ -18,6 +20,32 @@ constexpr std::size_t kMaxThrottleEntries = 4096;
 
 Clock::duration from_ms(double ms) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(ms));
+}
+
+/// FNV-1a over the bytes of a range of trivially copyable values, continuing from `h`.
+template <typename T>
+std::uint64_t hash_bytes(std::uint64_t h, std::span<const T> values) {
+  const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
+  for (std::size_t i = 0; i < values.size_bytes(); ++i) h = (h ^ bytes[i]) * 0x100000001b3ULL;
+  return h;
+}
+
+/// What tells two MeshTopology samples of one version apart: every field but the keys
+/// and the version (doubles by their bits, so a re-sent sample always matches itself).
+std::uint64_t content_hash(const TopologyView& t) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  const std::array<std::uint64_t, 3> sizes{t.node_ids.size(), t.rest_positions.size(),
+                                           t.tets.size()};
+  h = hash_bytes(h, std::span<const std::uint64_t>(sizes));
+  h = hash_bytes(h, t.node_ids);
+  h = hash_bytes(h, t.rest_positions);
+  h = hash_bytes(h, t.tets);
+  const std::array<double, 3> numbers{t.params.stiffness, t.params.damping, t.params.max_force};
+  h = hash_bytes(h, std::span<const double>(numbers));
+  const std::array<std::int64_t, 3> choices{t.params.is_static ? 1 : 0,
+                                            static_cast<std::int64_t>(t.params.depth),
+                                            static_cast<std::int64_t>(t.params.response)};
+  return hash_bytes(h, std::span<const std::int64_t>(choices));
 }
 
 /// Printable form of a name that may be invalid (control characters replaced).
@@ -74,12 +102,16 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
 }
 
 void Router::answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
-                        std::uint32_t version, std::int32_t code) {
+                        std::int32_t code) {
+  // Like every rejected answer (docs/PROTOCOL.md, ContactForces): topology_version is the
+  // version the service holds for the object (0: none), answer_id 0, no arrays.
+  const SceneRegistry* reg = registry(scene);
+  const VersionInfo* current = reg == nullptr ? nullptr : reg->current(object);
   ForcesMessage f;
   f.scene = scene;
   f.object = object;
   f.frame = frame;
-  f.topology_version = version;
+  f.topology_version = current == nullptr ? 0 : current->version;
   f.status = code;
   f.state_frame = frame;
   outbox_.publish_forces(f);
@@ -120,12 +152,26 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
     return;
   }
   const VersionInfo info{t.version, static_cast<Index>(t.rest_positions.size() / 3),
-                         t.params.is_static};
-  if (!scene.registry.submit(object, info)) {
-    spdlog::debug("{}/{}: topology version {} received again, ignored", it->first, object,
+                         t.params.is_static, content_hash(t)};
+  if (const VersionInfo* current = scene.registry.current(object);
+      current != nullptr && current->version == t.version) {
+    // The version already submitted, sent again: not rebuilt, but answered, so a client
+    // that waits for the verdict on this write gets one (docs/PROTOCOL.md, MeshTopology).
+    if (current->content_hash != info.content_hash) {
+      report(tetcollide_STATUS_INVALID_ARGUMENT, t.scene, t.object, t.version, -1,
+             "topology version " + std::to_string(t.version) +
+                 " is already registered with a different content (node ids, rest positions, "
+                 "tets or parameters); a changed topology needs a new version, the registered "
+                 "one stays",
+             now, t.source_timestamp);
+      return;
+    }
+    spdlog::debug("{}/{}: topology version {} received again, unchanged", it->first, object,
                   t.version);
+    jobs_.post(it->first, VerdictJob{object, t.version, t.source_timestamp});
     return;
   }
+  scene.registry.submit(object, info);
   TopologyJob job;
   job.object = object;
   job.version = t.version;
@@ -184,7 +230,7 @@ void Router::on_state(const StateView& s, Clock::time_point now) {
       try_dispatch(it->first, it->second, now);
     } else if (validate_name(s.scene, tetcollide_MAX_SCENE_NAME, "scene") &&
                validate_name(s.object, tetcollide_MAX_OBJECT_NAME, "object")) {
-      answer_now(s.scene, s.object, s.frame, s.topology_version, code);
+      answer_now(s.scene, s.object, s.frame, code);
     }
     return;
   }
@@ -293,7 +339,7 @@ void Router::hold(const StateView& s, Clock::time_point now) {
                                 ": no topology for this object (and too many states held)";
     report(tetcollide_STATUS_UNKNOWN_OBJECT, s.scene, s.object, s.topology_version, s.frame,
            message, now);
-    answer_now(s.scene, s.object, s.frame, s.topology_version, tetcollide_STATUS_UNKNOWN_OBJECT);
+    answer_now(s.scene, s.object, s.frame, tetcollide_STATUS_UNKNOWN_OBJECT);
     return;
   }
   Held& h = held_[key];
@@ -348,7 +394,7 @@ void Router::tick(Clock::time_point now) {
       view.topology_version = it->second.version;
       add_rejected(scene->second, view, code, message, it->second.received);
     } else {
-      answer_now(scene_name, object, it->second.frame, it->second.version, code);
+      answer_now(scene_name, object, it->second.frame, code);
     }
     it = held_.erase(it);
   }

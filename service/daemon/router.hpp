@@ -77,8 +77,9 @@ class Router {
   void hold(const StateView& state, Clock::time_point now);
   /// True while a state of the scene waits for its topology (within the grace).
   [[nodiscard]] bool holds_state(const std::string& scene_name) const;
+  /// A rejected answer outside any computation (the scene does not hold the state).
   void answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
-                  std::uint32_t version, std::int32_t code);
+                  std::int32_t code);
   void report(std::int32_t code, std::string_view scene, std::string_view object,
               std::uint32_t version, std::int64_t frame, const std::string& message,
               Clock::time_point now, std::int64_t topology_timestamp = 0);

@@ -60,6 +60,8 @@ void SceneRunner::run(SceneJob& job) {
           run_topology(j);
         } else if constexpr (std::is_same_v<T, RemoveJob>) {
           run_remove(j);
+        } else if constexpr (std::is_same_v<T, VerdictJob>) {
+          run_verdict(j);
         } else {
           run_frame(j);
         }
@@ -89,7 +91,10 @@ void SceneRunner::run_topology(TopologyJob& job) {
   msg.topology_timestamp = job.source_timestamp;
   if (st) {
     active_[job.object] = job.version;
-    state_frame_.erase(job.object);  // a new version starts from its rest positions
+    failed_.erase(job.object);
+    // A new version has no state yet: the pipeline leaves the object out of contact
+    // until its first state of this version (ContactForces.left_out).
+    state_frame_.erase(job.object);
     msg.kind = StatusKind::kRegistered;
     msg.code = tetcollide_STATUS_OK;
     msg.message = "registered topology version " + std::to_string(job.version) + ": " +
@@ -103,6 +108,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
     msg.message =
         "topology version " + std::to_string(job.version) + " rejected: " + st.error().message;
     spdlog::warn("{}/{}: {}", scene_, job.object, msg.message);
+    failed_[job.object] = FailedBuild{job.version, msg.code, msg.message};
   }
   outbox_.publish_status(msg);
   if (on_topology_) on_topology_(TopologyResult{scene_, job.object, job.version, st.ok()});
@@ -128,6 +134,33 @@ void SceneRunner::run_remove(const RemoveJob& job) {
   active_.erase(it);
   state_frame_.erase(job.object);
   spdlog::info("{}/{}: removed", scene_, job.object);
+  outbox_.publish_status(msg);
+}
+
+void SceneRunner::run_verdict(const VerdictJob& job) {
+  StatusMessage msg;
+  msg.scene = scene_;
+  msg.object = job.object;
+  msg.topology_version = job.version;
+  msg.topology_timestamp = job.source_timestamp;
+  const auto active = active_.find(job.object);
+  const auto failed = failed_.find(job.object);
+  if (active != active_.end() && active->second == job.version) {
+    msg.kind = StatusKind::kRegistered;
+    msg.code = tetcollide_STATUS_OK;
+    msg.message = "topology version " + std::to_string(job.version) +
+                  " unchanged: already registered with the same content (not rebuilt)";
+  } else if (failed != failed_.end() && failed->second.version == job.version) {
+    msg.kind = StatusKind::kError;
+    msg.code = failed->second.code;
+    msg.message = failed->second.message + " (re-sent unchanged)";
+  } else {
+    msg.kind = StatusKind::kError;
+    msg.code = tetcollide_STATUS_UNKNOWN_OBJECT;
+    msg.message = "topology version " + std::to_string(job.version) +
+                  " re-sent unchanged, but the object was removed before it was judged";
+  }
+  spdlog::debug("{}/{}: {}", scene_, job.object, msg.message);
   outbox_.publish_status(msg);
 }
 
@@ -177,8 +210,7 @@ void SceneRunner::run_frame(FrameJob& job) {
       f.topology_version = version;
       f.status = tetcollide_STATUS_INTERNAL;
       f.state_frame = job.frame;
-      f.answer_id = answer_id;
-      outbox_.publish_forces(f);
+      outbox_.publish_forces(f);  // rejected: answer_id 0 (docs/PROTOCOL.md)
     }
   } else {
     // The positions each object now holds in the pipeline came from these states.
@@ -187,6 +219,12 @@ void SceneRunner::run_frame(FrameJob& job) {
       const bool rejected = std::any_of(output.errors.begin(), output.errors.end(),
                                         [&](const auto& e) { return e.object == name; });
       if (!rejected && active_.count(name) != 0) state_frame_[name] = job.state_frames[i];
+    }
+    if (!output.left_out.empty() && spdlog::should_log(spdlog::level::debug)) {
+      std::string names;
+      for (const auto& n : output.left_out) names += (names.empty() ? "" : ", ") + n;
+      spdlog::debug("{}: frame {}: left out (no state of their topology version yet): {}", scene_,
+                    job.frame, names);
     }
     publish_answers(job, output, answer_id);
   }
@@ -256,6 +294,11 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     msg.nodes = {};
     msg.forces = {};
     msg.stiffness = {};
+    // Rejected answers carry no forces, no computation id and no left-out list.
+    const bool ok = msg.status == tetcollide_STATUS_OK;
+    msg.answer_id = ok ? answer_id : 0;
+    msg.left_out =
+        ok ? std::span<const std::string>(output.left_out) : std::span<const std::string>();
     const ObjectForces* f = msg.status == tetcollide_STATUS_OK ? find_forces(name) : nullptr;
     if (f != nullptr && !f->nodes.empty()) {
       msg.nodes = f->nodes;
@@ -272,28 +315,25 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
   }
   // Objects the scene does not hold (rejected before or by the pipeline) get their
   // answer too, so their simulator knows the frame is done.
-  const auto answer_unheld = [&](const std::string& name, std::uint32_t version,
-                                 std::int32_t code) {
+  // Like every rejected answer: topology_version = the version the scene holds for the
+  // object (none: 0), answer_id 0.
+  const auto answer_unheld = [&](const std::string& name, std::int32_t code) {
     if (active_.count(name) != 0) return;
     ForcesMessage m;
     m.scene = scene_;
     m.object = name;
     m.frame = job.frame;
-    m.topology_version = version;
+    m.topology_version = 0;
     m.status = code;
     m.state_frame = job.frame;
-    m.answer_id = answer_id;
     outbox_.publish_forces(m);
   };
-  for (const auto& r : job.rejected) answer_unheld(r.object, r.version, r.code);
+  for (const auto& r : job.rejected) answer_unheld(r.object, r.code);
   for (const auto& e : output.errors) {
     const bool already = std::any_of(job.rejected.begin(), job.rejected.end(),
                                      [&](const RejectedState& r) { return r.object == e.object; });
     if (already) continue;
-    std::uint32_t version = 0;
-    for (const auto& s : job.states)
-      if (s.object == e.object) version = s.topology_version;
-    answer_unheld(e.object, version, status_code(e.error.code));
+    answer_unheld(e.object, status_code(e.error.code));
   }
 }
 

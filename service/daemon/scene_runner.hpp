@@ -31,6 +31,15 @@ struct RemoveJob {
   std::string object;
 };
 
+/// A MeshTopology sample that re-sent the version already submitted (same content): no
+/// rebuild, but a verdict of its own once that version's build is done (jobs of a scene
+/// run in order), so a client waiting for the verdict on its write gets one.
+struct VerdictJob {
+  std::string object;
+  std::uint32_t version = 0;
+  std::int64_t source_timestamp = 0;  ///< of the re-sent sample, echoed in the verdict
+};
+
 /// An object whose state the reader thread rejected in this frame.
 struct RejectedState {
   std::string object;
@@ -49,7 +58,7 @@ struct FrameJob {
   std::uint64_t dropped_frames = 0;  ///< set by the Scheduler when the job starts
 };
 
-using SceneJob = std::variant<TopologyJob, RemoveJob, FrameJob>;
+using SceneJob = std::variant<TopologyJob, RemoveJob, FrameJob, VerdictJob>;
 
 /// The pipeline's verdict on a topology, sent back to the reader thread's registry.
 struct TopologyResult {
@@ -72,6 +81,7 @@ class SceneRunner {
  private:
   void run_topology(TopologyJob& job);
   void run_remove(const RemoveJob& job);
+  void run_verdict(const VerdictJob& job);
   void run_frame(FrameJob& job);
   void publish_answers(const FrameJob& job, const FrameOutput& output, std::uint64_t answer_id);
   void report_timing(double compute_ms, double latency_ms);
@@ -81,6 +91,14 @@ class SceneRunner {
   Outbox& outbox_;
   TopologyResultSink on_topology_;
   std::map<std::string, std::uint32_t, std::less<>> active_;  ///< object -> version held
+  /// The last rejected topology build of each object (its version, code and message),
+  /// until a build of that object succeeds: the verdict repeated for a re-sent version.
+  struct FailedBuild {
+    std::uint32_t version = 0;
+    std::int32_t code = 0;
+    std::string message;
+  };
+  std::map<std::string, FailedBuild, std::less<>> failed_;
   /// object -> frame of the newest state the pipeline used (absent: rest positions)
   std::map<std::string, std::int64_t, std::less<>> state_frame_;
   std::vector<double> stiffness_rows_;  ///< reused per object

@@ -3,15 +3,19 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <array>
 #include <cmath>
 #include <csignal>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <thread>
 
 #include "daemon_process.hpp"
+#include "protocol.hpp"
 #include "scenes.hpp"
+#include "tetcollide.h"
 #include "tetcollide/client.hpp"
 
 namespace tc::itest {
@@ -406,6 +410,379 @@ TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
     // Answered without the 2 s assembly wait.
     EXPECT_LT(std::chrono::steady_clock::now() - t0, 1000ms) << "frame " << f;
   }
+}
+
+/// A ContactForces sample as a plain reader of the topic sees it (no client filtering).
+struct RawForces {
+  std::string scene;
+  std::string object;
+  std::int64_t frame = 0;
+  std::uint32_t topology_version = 0;
+  std::int32_t status = 0;
+  std::size_t nodes = 0;
+  std::int64_t state_frame = 0;
+  std::uint64_t answer_id = 0;
+  std::size_t left_out = 0;
+};
+
+/// A bare DDS reader of every ContactForces sample of a domain, with the protocol's QoS:
+/// what a client written from the IDL and PROTOCOL.md alone receives.
+class RawForcesReader {
+ public:
+  explicit RawForcesReader(std::uint32_t domain) {
+    participant_ = dds_create_participant(domain, nullptr, nullptr);
+    EXPECT_GT(participant_, 0) << protocol::dds_error(participant_);
+    const auto qos = protocol::topic_qos(protocol::Topic::kForces);
+    const dds_entity_t topic =
+        dds_create_topic(participant_, protocol::topic_descriptor(protocol::Topic::kForces),
+                         protocol::topic_name(protocol::Topic::kForces), qos.get(), nullptr);
+    EXPECT_GT(topic, 0) << protocol::dds_error(topic);
+    reader_ = dds_create_reader(participant_, topic, qos.get(), nullptr);
+    EXPECT_GT(reader_, 0) << protocol::dds_error(reader_);
+  }
+  ~RawForcesReader() { dds_delete(participant_); }
+  RawForcesReader(const RawForcesReader&) = delete;
+  RawForcesReader& operator=(const RawForcesReader&) = delete;
+
+  /// Takes samples until one matches `pred` (all taken are kept in `seen`).
+  template <typename Pred>
+  std::optional<RawForces> wait(Pred pred, std::chrono::milliseconds timeout = 5s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      for (const auto& f : seen)
+        if (pred(f)) return f;
+      if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;
+      take();
+      std::this_thread::sleep_for(10ms);
+    }
+  }
+  std::vector<RawForces> seen;
+
+ private:
+  void take() {
+    std::array<void*, 64> samples{};
+    std::array<dds_sample_info_t, 64> infos{};
+    const dds_return_t n = dds_take(reader_, samples.data(), infos.data(), 64, 64);
+    ASSERT_GE(n, 0) << protocol::dds_error(n);
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
+      const auto* s =
+          static_cast<const tetcollide_ContactForces*>(samples[static_cast<std::size_t>(i)]);
+      seen.push_back({std::string(protocol::bounded_view(s->scene)),
+                      std::string(protocol::bounded_view(s->object)), s->frame, s->topology_version,
+                      s->status, s->nodes._length, s->state_frame, s->answer_id,
+                      s->left_out._length});
+    }
+    if (n > 0) dds_return_loan(reader_, samples.data(), n);
+  }
+  dds_entity_t participant_ = 0;
+  dds_entity_t reader_ = 0;
+};
+
+// Issue 14, point 1, the sequence an independent client found: after a cut of "box"
+// (version 2, whose rest shape overlaps "body"), in a frame where box's state is stale
+// (version 1, rejected) and body's is new, body used to get forces against box's rest
+// positions. Now box is left out of contact until its first version-2 state, and every
+// OK answer names it in left_out.
+TEST_F(ServiceTest, ACutObjectIsLeftOutUntilItsFirstStateOfTheNewVersion) {
+  RawForcesReader raw(domain_);  // box's answers in frames it sent no state in
+  auto c = connect("left-out");
+  const client::Mesh body = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  const client::Mesh box1 = box_mesh(2, {-0.3, -0.3, -0.3}, {0.7, 0.7, 0.7});
+  c->register_object("body", body, {});
+  c->register_object("box", box1, {});
+  ASSERT_TRUE(c->wait_registered("body", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("box", 10s).ok);
+  const auto body_pos = translated(body, {0, 0, 0});
+  const auto box1_far = translated(box1, {5, 0, 0});
+  const auto frame = [&](std::int64_t f, const std::vector<client::ObjectState>& states) {
+    c->publish_states(f, states);
+    auto forces = c->wait_forces(f, 5s);
+    EXPECT_TRUE(forces && forces->frame == f) << "frame " << f;
+    return forces;
+  };
+  // Frame 0: box far from body; nobody has contact, nobody is left out.
+  auto f0 = frame(0, {{"body", body_pos}, {"box", box1_far}});
+  ASSERT_TRUE(f0 && f0->ok());
+  EXPECT_TRUE(f0->find("body")->nodes.empty());
+  EXPECT_TRUE(f0->find("body")->left_out.empty());
+
+  // The cut: version 2 of box, its rest shape right inside body.
+  const client::Mesh box2 = box_mesh(1, {-0.3, -0.3, -0.3}, {0.3, 0.3, 0.3});
+  ASSERT_EQ(c->register_object("box", box2, {}), 2u);
+  ASSERT_TRUE(c->wait_registered("box", 10s).ok);
+
+  // Frame 1: box's state is stale (version 1), body's is new.
+  client::ObjectState stale{"box", box1_far};
+  stale.topology_version = 1;
+  auto f1 = frame(1, {{"body", body_pos}, stale});
+  ASSERT_TRUE(f1);
+  const auto* box_answer = f1->find("box");
+  ASSERT_NE(box_answer, nullptr);
+  EXPECT_EQ(box_answer->status, static_cast<int>(StatusCode::kStaleVersion));
+  EXPECT_EQ(box_answer->topology_version, 2u) << "a rejected answer names the held version";
+  EXPECT_EQ(box_answer->answer_id, 0u);
+  EXPECT_EQ(box_answer->state_frame, 1);
+  EXPECT_TRUE(box_answer->left_out.empty());
+  const auto* body_answer = f1->find("body");
+  ASSERT_NE(body_answer, nullptr);
+  EXPECT_EQ(body_answer->status, 0);
+  EXPECT_TRUE(body_answer->nodes.empty())
+      << "body got forces on " << body_answer->nodes.size()
+      << " nodes against box's rest positions, which the client never sent";
+  EXPECT_EQ(body_answer->left_out, std::vector<std::string>{"box"});
+  EXPECT_NE(body_answer->answer_id, 0u);
+
+  // Frame 2: no state of box at all (the frame runs after the assembly wait): still out.
+  auto f2 = frame(2, {{"body", body_pos}});
+  ASSERT_TRUE(f2 && f2->ok());
+  EXPECT_TRUE(f2->find("body")->nodes.empty());
+  EXPECT_EQ(f2->find("body")->left_out, std::vector<std::string>{"box"});
+  // The client waits only for the objects it sent states for: box's answer comes apart.
+  const auto box2_answer = raw.wait([](const RawForces& f) {
+    return f.scene == "left-out" && f.object == "box" && f.frame == 2;
+  });
+  ASSERT_TRUE(box2_answer);
+  EXPECT_EQ(box2_answer->status, 0);
+  EXPECT_EQ(box2_answer->state_frame, -1);
+  EXPECT_EQ(box2_answer->topology_version, 2u);
+  EXPECT_EQ(box2_answer->nodes, 0u);
+  EXPECT_EQ(box2_answer->left_out, 1u);
+  EXPECT_EQ(box2_answer->answer_id, f2->find("body")->answer_id);
+
+  // Frame 3: box's first version-2 state, far away: it is back, and far.
+  const auto box2_far = translated(box2, {5, 0, 0});
+  auto f3 = frame(3, {{"body", body_pos}, {"box", box2_far}});
+  ASSERT_TRUE(f3 && f3->ok());
+  EXPECT_TRUE(f3->find("body")->left_out.empty());
+  EXPECT_TRUE(f3->find("body")->nodes.empty());
+  EXPECT_EQ(f3->find("box")->state_frame, 3);
+
+  // Frame 4: box where its rest shape is, inside body: now both get forces.
+  const auto box2_in = translated(box2, {0, 0, 0});
+  auto f4 = frame(4, {{"body", body_pos}, {"box", box2_in}});
+  ASSERT_TRUE(f4 && f4->ok());
+  EXPECT_FALSE(f4->find("body")->nodes.empty());
+  EXPECT_FALSE(f4->find("box")->nodes.empty());
+  EXPECT_TRUE(f4->find("body")->left_out.empty());
+}
+
+// Issue 14, point 4: what PROTOCOL.md now says a second implementation had to guess.
+// Rejected answers look alike whatever the rejection (topology_version = the version the
+// service holds, 0 when none; answer_id 0; state_frame = frame; no arrays); a plain
+// ContactForces reader gets every scene's answers (a client filters by scene); a
+// zero-initialized parameter set is rejected (stiffness 0); node indices are indices
+// into the topology's arrays, whatever the node ids.
+TEST_F(ServiceTest, RejectedAnswersAreAlikeAndEveryReaderSeesEveryScene) {
+  RawForcesReader raw(domain_);
+  auto c = connect("rejects");
+  TwoBoxes s;
+  client::Mesh a = s.a;
+  a.node_ids.clear();
+  for (std::size_t i = 0; i < a.rest_positions.size() / 3; ++i)
+    a.node_ids.push_back(1'000'000 + 7 * static_cast<std::int64_t>(i));
+  c->register_object("a", a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  client::ObjectParams zero;
+  zero.stiffness = 0.0;
+  zero.response = client::ResponseKind::kPoint;
+  c->register_object("zero", box_mesh(1, {5, 5, 5}, {6, 6, 6}), zero);
+  const auto z = c->wait_registered("zero", 10s);
+  ASSERT_TRUE(z.done);
+  EXPECT_EQ(z.code, static_cast<int>(StatusCode::kInvalidArgument)) << z.message;
+
+  auto nan_positions = s.pos_b(0);
+  nan_positions[7] = std::nan("");
+  auto short_positions = s.pos_b(0);
+  short_positions.resize(short_positions.size() - 3);
+  struct Case {
+    const char* what;
+    std::vector<double> positions;
+    std::uint32_t version;
+    StatusCode code;
+  };
+  const std::vector<Case> cases = {
+      {"stale version", s.pos_b(0), 77, StatusCode::kStaleVersion},
+      {"NaN", nan_positions, 0, StatusCode::kInvalidMesh},
+      {"wrong length", short_positions, 0, StatusCode::kInvalidArgument}};
+  std::int64_t frame = 0;
+  for (const auto& bad : cases) {
+    SCOPED_TRACE(bad.what);
+    ++frame;
+    const auto pa = s.pos_a(frame);
+    client::ObjectState sb{"b", bad.positions};
+    sb.topology_version = bad.version;
+    c->publish_states(frame, {{"a", pa}, sb});
+    ASSERT_TRUE(c->wait_forces(frame, 5s));
+    const auto rb = raw.wait([&](const RawForces& f) {
+      return f.scene == "rejects" && f.object == "b" && f.frame == frame;
+    });
+    ASSERT_TRUE(rb);
+    EXPECT_EQ(rb->status, static_cast<int>(bad.code));
+    EXPECT_EQ(rb->topology_version, 1u);
+    EXPECT_EQ(rb->answer_id, 0u);
+    EXPECT_EQ(rb->state_frame, frame);
+    EXPECT_EQ(rb->nodes, 0u);
+    EXPECT_EQ(rb->left_out, 0u);
+    const auto ra = raw.wait([&](const RawForces& f) {
+      return f.scene == "rejects" && f.object == "a" && f.frame == frame;
+    });
+    ASSERT_TRUE(ra);
+    EXPECT_EQ(ra->status, 0);
+    EXPECT_NE(ra->answer_id, 0u);
+  }
+  // A state for an object the service does not hold: answered after the grace, outside
+  // any computation, alike.
+  ++frame;
+  const auto pa = s.pos_a(frame);
+  const auto pb = s.pos_b(frame);
+  c->publish_states(frame, {{"a", pa}, {"b", pb}, {"ghost", pb}});
+  const auto answered = c->wait_forces(frame, 5s);
+  ASSERT_TRUE(answered && answered->ok());
+  const auto ghost = raw.wait([&](const RawForces& f) { return f.object == "ghost"; });
+  ASSERT_TRUE(ghost);
+  EXPECT_EQ(ghost->status, static_cast<int>(StatusCode::kUnknownObject));
+  EXPECT_EQ(ghost->topology_version, 0u);
+  EXPECT_EQ(ghost->answer_id, 0u);
+  EXPECT_EQ(ghost->state_frame, frame);
+  // Node indices: 0-based into the arrays, whatever the ids.
+  bool any = false;
+  for (const auto& o : answered->objects) {
+    any = any || !o.nodes.empty();
+    for (const auto n : o.nodes) {
+      EXPECT_GE(n, 0);
+      EXPECT_LT(static_cast<std::size_t>(n), a.rest_positions.size() / 3);
+    }
+  }
+  EXPECT_TRUE(any) << "the overlapping boxes got no force";
+
+  // Another simulator's scene: its answers reach this plain reader too.
+  auto other = connect("someone-else");
+  other->register_object("x", s.a, {});
+  ASSERT_TRUE(other->wait_registered("x", 10s).ok);
+  const auto px = s.pos_a(0);
+  other->publish_states(0, {{"x", px}});
+  ASSERT_TRUE(other->wait_forces(0, 5s));
+  EXPECT_TRUE(raw.wait([](const RawForces& f) { return f.scene == "someone-else"; }));
+}
+
+// Issue 14, point 3: every MeshTopology write gets a verdict matched to it, a re-sent
+// version too ("Life of a client", step 3, waits for it).
+TEST_F(ServiceTest, ReSendingTheSameVersionGetsAVerdict) {
+  auto c = connect("resend");
+  const client::Mesh x = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+  ASSERT_EQ(c->register_object("x", x, {}), 1u);
+  ASSERT_TRUE(c->wait_registered("x", 10s).ok);
+  // The same version and content again: REGISTERED again, not rebuilt.
+  ASSERT_EQ(c->register_object("x", x, {}, 1), 1u);
+  const auto again = c->wait_registered("x", 10s);
+  ASSERT_TRUE(again.done) << "no verdict on a re-sent version";
+  EXPECT_TRUE(again.ok) << again.message;
+  EXPECT_NE(again.message.find("unchanged"), std::string::npos) << again.message;
+  // Sent right after the first write (verdict still pending): both get their verdict.
+  const client::Mesh y = box_mesh(2, {3, 0, 0}, {4, 1, 1});
+  ASSERT_EQ(c->register_object("y", y, {}), 1u);
+  ASSERT_EQ(c->register_object("y", y, {}, 1), 1u);
+  const auto y_again = c->wait_registered("y", 10s);
+  ASSERT_TRUE(y_again.done);
+  EXPECT_TRUE(y_again.ok) << y_again.message;
+  // The same version with another content: an error, the registered version stays.
+  client::ObjectParams stiffer;
+  stiffer.stiffness = 2e4;
+  ASSERT_EQ(c->register_object("x", x, stiffer, 1), 1u);
+  const auto changed = c->wait_registered("x", 10s);
+  ASSERT_TRUE(changed.done);
+  EXPECT_FALSE(changed.ok);
+  EXPECT_EQ(changed.code, static_cast<int>(StatusCode::kInvalidArgument)) << changed.message;
+  EXPECT_NE(changed.message.find("different content"), std::string::npos) << changed.message;
+  // A rejected version re-sent unchanged is rejected again, with its reason (whether the
+  // re-send arrives while the first build runs or after it failed).
+  client::Mesh inverted = box_mesh(1, {6, 0, 0}, {7, 1, 1});
+  std::swap(inverted.tets[0], inverted.tets[1]);
+  ASSERT_EQ(c->register_object("z", inverted, {}), 1u);
+  ASSERT_EQ(c->register_object("z", inverted, {}, 1), 1u);
+  const auto bad = c->wait_registered("z", 10s);
+  ASSERT_TRUE(bad.done);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_EQ(bad.code, static_cast<int>(StatusCode::kInvalidMesh)) << bad.message;
+  // x's version 1 is still what the scene holds.
+  const auto px = translated(x, {0, 0, 0});
+  const auto py = translated(y, {0, 0, 0});
+  c->publish_states(0, {{"x", px}, {"y", py}});
+  const auto forces = c->wait_forces(0, 5s);
+  ASSERT_TRUE(forces && forces->frame == 0);
+  ASSERT_NE(forces->find("x"), nullptr);
+  EXPECT_EQ(forces->find("x")->status, 0);
+  EXPECT_EQ(forces->find("x")->topology_version, 1u);
+}
+
+// Issue 14, point 2: PROTOCOL.md promises a late ServiceStatus reader the service's
+// newest 32 samples (transient-local, KEEP_LAST 32); a writer without a matching
+// durability_service depth gave it only the newest one.
+TEST_F(ServiceTest, ALateStatusReaderGetsTheNewest32Samples) {
+  // Heartbeats every hour: the samples written during the test are the test's own.
+  std::string config = kConfig;
+  config.replace(config.find("status_period_s: 0.2"), 20, "status_period_s: 3600");
+  daemon_.reset();
+  daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, config);
+  ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  const auto late_reader = [&](std::size_t expect) {
+    auto late = connect("history-reader");
+    std::vector<client::StatusEvent> events;
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (events.size() < expect && std::chrono::steady_clock::now() < deadline) {
+      for (auto& e : late->take_status_events()) events.push_back(std::move(e));
+      late->poll(20ms);
+    }
+    late->poll(300ms);  // nothing beyond the history arrives
+    for (auto& e : late->take_status_events()) events.push_back(std::move(e));
+    return events;
+  };
+  {
+    auto c = connect("history");
+    for (const char* o : {"a", "b", "c"}) {
+      c->register_object(o, box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+      ASSERT_TRUE(c->wait_registered(o, 10s).ok) << o;
+    }
+    client::Mesh inverted = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+    std::swap(inverted.tets[0], inverted.tets[1]);
+    c->register_object("bad", inverted, {});
+    ASSERT_FALSE(c->wait_registered("bad", 10s).ok);
+    // Keep c (and its objects) until the late reader looked: no removals yet.
+    const auto events = late_reader(6);
+    // STARTING, READY, 3 registrations, 1 error: everything the service wrote.
+    ASSERT_EQ(events.size(), 6u);
+    for (std::size_t i = 1; i < events.size(); ++i)
+      EXPECT_EQ(events[i].sequence_number, events[i - 1].sequence_number + 1);
+    EXPECT_EQ(events[1].kind, client::StatusEvent::Kind::kStateChange);
+    EXPECT_EQ(events[1].state, client::StatusEvent::State::kReady);
+    std::set<std::string> registered;
+    for (const auto& e : events)
+      if (e.kind == client::StatusEvent::Kind::kRegistered) registered.insert(e.object);
+    EXPECT_EQ(registered, (std::set<std::string>{"a", "b", "c"}));
+    EXPECT_EQ(events.back().kind, client::StatusEvent::Kind::kError);
+    EXPECT_EQ(events.back().object, "bad");
+  }
+  // c's objects leave with it (3 REMOVED samples would otherwise interleave below).
+  for (const std::string line : {"history/a: removed", "history/b: removed", "history/c: removed"})
+    ASSERT_TRUE(daemon_->wait_for_log(line, 10s)) << line;
+  // More than 32 samples: a late reader gets exactly the newest 32, in order.
+  auto c = connect("history-2");
+  const client::Mesh m = box_mesh(1, {0, 0, 0}, {1, 1, 1});
+  for (int i = 0; i < 40; ++i) {
+    const std::string o = std::string("o").append(std::to_string(i));
+    c->register_object(o, m, {});
+    ASSERT_TRUE(c->wait_registered(o, 10s).ok) << o;
+  }
+  const auto events = late_reader(32);
+  ASSERT_EQ(events.size(), 32u);
+  for (std::size_t i = 1; i < events.size(); ++i)
+    EXPECT_EQ(events[i].sequence_number, events[i - 1].sequence_number + 1);
+  EXPECT_EQ(events.back().kind, client::StatusEvent::Kind::kRegistered);
+  EXPECT_EQ(events.back().object, "o39");
+  EXPECT_EQ(events.back().state, client::StatusEvent::State::kReady);
 }
 
 }  // namespace

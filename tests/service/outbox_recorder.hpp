@@ -22,6 +22,7 @@ struct Forces {
   std::vector<double> stiffness;
   std::int64_t state_frame = -1;
   std::uint64_t answer_id = 0;
+  std::vector<std::string> left_out;
 };
 
 struct Stats {
@@ -45,7 +46,8 @@ class OutboxRecorder final : public Outbox {
                       {m.forces.begin(), m.forces.end()},
                       {m.stiffness.begin(), m.stiffness.end()},
                       m.state_frame,
-                      m.answer_id});
+                      m.answer_id,
+                      {m.left_out.begin(), m.left_out.end()}});
   }
   void publish_stats(const StatsMessage& m) override {
     std::lock_guard lock(mutex_);

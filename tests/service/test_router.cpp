@@ -132,9 +132,39 @@ TEST_F(RouterTest, TopologyBecomesAJob) {
   EXPECT_EQ(topos[0].version, 1u);
   EXPECT_EQ(topos[0].mesh.num_tets(), 1);
   EXPECT_EQ(router().scene_count(), 1u);
-  add_object("s", "a");  // re-delivered: ignored
+  add_object("s", "a");  // re-delivered: not rebuilt, but answered
   EXPECT_EQ(jobs.topologies().size(), 1u);
+  ASSERT_EQ(jobs.jobs.size(), 2u);
+  const auto* verdict = std::get_if<VerdictJob>(&jobs.jobs[1].second);
+  ASSERT_NE(verdict, nullptr);
+  EXPECT_EQ(verdict->object, "a");
+  EXPECT_EQ(verdict->version, 1u);
   EXPECT_TRUE(outbox.errors().empty());
+}
+
+// A sample with the registered version but another content is not a re-send: it is an
+// error (a changed topology needs a new version) and the registered one stays.
+TEST_F(RouterTest, TheSameVersionWithAnotherContentIsRejected) {
+  Topo t("s", "a", test::single_tet());
+  router().on_topology(t.view(), now);
+  Topo stiffer = t;
+  stiffer.params.stiffness = 2e4;
+  router().on_topology(stiffer.view(), now);
+  Topo moved = t;
+  moved.rest[0] += 1e-12;
+  router().on_topology(moved.view(), now);
+  EXPECT_EQ(jobs.topologies().size(), 1u);
+  EXPECT_EQ(jobs.jobs.size(), 1u);
+  const auto errors = outbox.errors();
+  ASSERT_EQ(errors.size(), 2u);
+  for (const auto& e : errors) {
+    EXPECT_EQ(e.code, tetcollide_STATUS_INVALID_ARGUMENT);
+    EXPECT_EQ(e.frame, -1);
+    EXPECT_EQ(e.topology_version, 1u);
+    EXPECT_NE(e.message.find("different content"), std::string::npos) << e.message;
+  }
+  router().on_topology(t.view(), now);  // the original again: a verdict job
+  EXPECT_NE(std::get_if<VerdictJob>(&jobs.jobs.back().second), nullptr);
 }
 
 TEST_F(RouterTest, FrameDispatchedWhenEveryObjectSent) {

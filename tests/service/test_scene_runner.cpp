@@ -153,7 +153,7 @@ TEST_F(SceneRunnerTest, AnswersNameTheStateTheyWereComputedFrom) {
 
 // ContactForces.answer_id ties the answers of one computation together: a frame computed
 // without b's late state and again with it gives two sets a client must not mix (the
-// first set's answer for a was computed with b at rest).
+// first set's answer for a was computed without b). Rejected answers carry 0.
 TEST_F(SceneRunnerTest, AnswersOfOneComputationShareAnId) {
   const auto [a, b] = add_overlapping_pair();
   frame(4, {FrameObjectInput{"a", 1, a.positions}});  // b's state not in (yet)
@@ -169,8 +169,75 @@ TEST_F(SceneRunnerTest, AnswersOfOneComputationShareAnId) {
   EXPECT_EQ(four[3].answer_id, four[2].answer_id);
   EXPECT_NE(four[2].answer_id, four[0].answer_id);
   EXPECT_EQ(five[1].answer_id, five[0].answer_id);
-  EXPECT_EQ(five[2].answer_id, five[0].answer_id);
+  EXPECT_EQ(five[2].object, "c");
+  EXPECT_EQ(five[2].answer_id, 0u);
   EXPECT_NE(five[0].answer_id, four[2].answer_id);
+}
+
+// Issue 14: an object with no state of its current version (registered, or cut, and no
+// state used since) is left out of contact, and every OK answer names it; its rest
+// positions are not a state. Rejected answers name the version the scene holds (0 for
+// an object it does not hold), carry answer_id 0 and no left-out list.
+TEST_F(SceneRunnerTest, AnObjectWithoutAStateOfItsVersionIsLeftOut) {
+  const auto [a, b] = add_overlapping_pair();
+  frame(1, {FrameObjectInput{"a", 1, a.positions}});  // b never sent a state
+  auto answers = outbox_.forces_of("s", 1);
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_TRUE(answers[0].nodes.empty()) << "a got forces against b's rest positions";
+  EXPECT_EQ(answers[0].left_out, std::vector<std::string>{"b"});
+  EXPECT_EQ(answers[1].left_out, std::vector<std::string>{"b"});
+  EXPECT_EQ(answers[1].state_frame, -1);
+  frame(2, {FrameObjectInput{"a", 1, a.positions}, FrameObjectInput{"b", 1, b.positions}});
+  answers = outbox_.forces_of("s", 2);
+  EXPECT_FALSE(answers[0].nodes.empty());
+  EXPECT_TRUE(answers[0].left_out.empty());
+  add("b", 2, box_at(0.8));  // the cut: b is out again until its first version-2 state
+  frame(3, {FrameObjectInput{"a", 1, a.positions}},
+        {RejectedState{"b", 1, tetcollide_STATUS_STALE_VERSION},
+         RejectedState{"ghost", 4, tetcollide_STATUS_UNKNOWN_OBJECT}});
+  answers = outbox_.forces_of("s", 3);
+  ASSERT_EQ(answers.size(), 3u);
+  EXPECT_EQ(answers[0].status, 0);
+  EXPECT_TRUE(answers[0].nodes.empty());
+  EXPECT_EQ(answers[0].left_out, std::vector<std::string>{"b"});
+  EXPECT_EQ(answers[1].status, tetcollide_STATUS_STALE_VERSION);
+  EXPECT_EQ(answers[1].version, 2u);  // the version held, not the stale one sent
+  EXPECT_EQ(answers[1].answer_id, 0u);
+  EXPECT_TRUE(answers[1].left_out.empty());
+  EXPECT_EQ(answers[2].object, "ghost");
+  EXPECT_EQ(answers[2].version, 0u);  // not held
+  EXPECT_EQ(answers[2].answer_id, 0u);
+  frame(4, {FrameObjectInput{"a", 1, a.positions}, FrameObjectInput{"b", 2, b.positions}});
+  answers = outbox_.forces_of("s", 4);
+  EXPECT_FALSE(answers[0].nodes.empty());
+  EXPECT_TRUE(answers[0].left_out.empty());
+}
+
+// A re-sent topology version gets a verdict of its own, after the version's build.
+TEST_F(SceneRunnerTest, AReSentVersionGetsAVerdict) {
+  add("a", 1, box_at(0.0));
+  TetMesh inverted = box_at(3.0);
+  std::swap(inverted.tets[3][0], inverted.tets[3][1]);
+  add("a", 2, inverted);  // rejected; version 1 stays
+  const auto verdict = [&](std::uint32_t version, std::int64_t timestamp) {
+    SceneJob job = VerdictJob{"a", version, timestamp};
+    runner_.run(job);
+    return outbox_.status.back();
+  };
+  const StatusMessage v1 = verdict(1, 111);
+  EXPECT_EQ(v1.kind, StatusKind::kRegistered);
+  EXPECT_EQ(v1.topology_version, 1u);
+  EXPECT_EQ(v1.topology_timestamp, 111);
+  EXPECT_NE(v1.message.find("unchanged"), std::string::npos) << v1.message;
+  const StatusMessage v2 = verdict(2, 222);
+  EXPECT_EQ(v2.kind, StatusKind::kError);
+  EXPECT_EQ(v2.code, tetcollide_STATUS_INVALID_MESH);
+  EXPECT_EQ(v2.topology_timestamp, 222);
+  SceneJob remove = RemoveJob{"a"};
+  runner_.run(remove);
+  const StatusMessage gone = verdict(1, 333);
+  EXPECT_EQ(gone.kind, StatusKind::kError);
+  EXPECT_EQ(gone.code, tetcollide_STATUS_UNKNOWN_OBJECT);
 }
 
 TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {

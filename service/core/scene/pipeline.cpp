@@ -39,6 +39,9 @@ struct SceneObject {
   std::unique_ptr<CollisionBody> body;
   std::unique_ptr<DepthSolver> depth;
   bool static_depth_ready = false;  ///< static objects: full map computed once
+  /// A state of this version was applied: until then a moving object's positions are its
+  /// rest positions, which are not a state, and it takes no part in contact.
+  bool has_state = false;
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
@@ -146,6 +149,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
       obj.static_depth_ready = false;  // a "static" object moved: recompute once
     obj.positions = state.positions;
+    obj.has_state = true;
   }
 
   // 2. Broad phase over objects: boxes, then the pairs that touch and are enabled.
@@ -153,6 +157,10 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   std::vector<SceneObject*> list;
   list.reserve(objects.size());
   for (auto& [name, obj] : objects) {
+    if (!obj->has_state && !obj->params.is_static) {
+      out.left_out.push_back(name);  // no state of its version yet: no pair with it
+      continue;
+    }
     obj->body->set_positions(obj->positions);
     obj->marked.clear();
     obj->involved = false;

@@ -82,6 +82,10 @@ struct FrameOutput {
   std::vector<ObjectForces> forces;  ///< one entry per object with a non-zero force, by name
   FrameStats stats;
   std::vector<ObjectError> errors;
+  /// Moving (not static) objects that got no valid state of their current topology
+  /// version yet (since set_topology), by name: left out of the frame, no pair with them
+  /// is tested. Rest positions are not a state.
+  std::vector<std::string> left_out;
   /// With PipelineConfig::record_contacts: pairs in order, A's nodes in B first.
   std::vector<FramePointContact> point_contacts;
 };
@@ -106,7 +110,9 @@ class Pipeline {
   [[nodiscard]] bool has_object(const std::string& object) const;
 
   /// Runs one frame on the given states. Objects of the scene without a state this
-  /// frame keep their last positions. A state that names an unknown object, a stale
+  /// frame keep their last positions; a moving object that never got a valid state of
+  /// its current topology version is left out (FrameOutput::left_out), a static one uses
+  /// its rest positions. A state that names an unknown object, a stale
   /// topology version, a wrong node count or non-finite or inverted positions is
   /// rejected into FrameOutput::errors; the rest of the frame runs.
   FrameOutput run_frame(std::int64_t frame, std::span<const FrameObjectInput> states);

@@ -101,8 +101,13 @@ struct ObjectForces {
   /// this client waits for; -1: rest positions). See ContactForces.state_frame.
   std::int64_t state_frame = -1;
   /// The service's computation this answer comes from (ContactForces.answer_id): the
-  /// answers of one FrameForces all come from one computation; 0 from older services.
+  /// answers of one FrameForces all come from one computation; 0 from older services
+  /// and in rejected answers.
   std::uint64_t answer_id = 0;
+  /// Objects of the scene the computation left out because the service holds no state of
+  /// their current topology version (ContactForces.left_out): these forces lack contact
+  /// with them. Sorted; empty in rejected answers and from older services.
+  std::vector<std::string> left_out;
 };
 
 /// Every answer of one frame for this client's objects, sorted by object name.
