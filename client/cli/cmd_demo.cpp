@@ -364,6 +364,128 @@ Status write_stage_times(const std::filesystem::path& out, const std::string& sc
   return viz::write_png(viz::plot_lines(t.frames, lines, po), (out / "stage_times.png").string());
 }
 
+/// What a finished run reports (summary.json and the human summary).
+struct RunReport {
+  const sim::SceneSpec& scene;
+  int done;
+  double run_s;
+  std::size_t stats_received;
+  const StageTimes& t;
+  const sim::RunBooks& books;
+  std::size_t vtus;
+  const std::vector<std::string>& pngs;
+  const nlohmann::json& versions;
+  const std::vector<std::string>& failures;
+  bool interrupted;
+};
+
+/// summary.json (docs/DEMO.md, "summary.json keys").
+nlohmann::json summary_json(const RunReport& r) {
+  const sim::RunBooks& books = r.books;
+  const StageTimes& t = r.t;
+  nlohmann::json summary = {
+      {"scene", r.scene.name},
+      {"frames", r.done},
+      {"frame_stats_received", r.stats_received},
+      {"dt_s", r.scene.dt},
+      {"integrator", r.scene.integrator},
+      {"substeps", r.scene.substeps},
+      {"newton_iterations_mean", books.frames > 0 ? static_cast<double>(books.newton_iterations) /
+                                                        static_cast<double>(books.frames)
+                                                  : 0.0},
+      {"simulated_s", r.done * r.scene.dt},
+      {"run_s", r.run_s},
+      {"objects", r.scene.objects.size()},
+      {"collision_ms",
+       {{"round_trip", stage_json(t.round_trip)},
+        {"assembly", stage_json(t.assembly)},
+        {"queue", stage_json(t.queue)},
+        {"broad", stage_json(t.broad)},
+        {"narrow", stage_json(t.narrow)},
+        {"depth", stage_json(t.depth)},
+        {"response", stage_json(t.response)},
+        {"compute", stage_json(t.compute)},
+        {"publish", stage_json(t.publish)}}},
+      {"max_penetration_m", books.max_penetration},
+      {"max_penetration_frame", books.max_penetration_frame},
+      {"final_penetration_m", books.last_penetration},
+      {"service_max_depth_m", t.service_max_depth},
+      {"max_contacts", t.max_contacts},
+      {"energy_j",
+       {{"initial", books.energy_initial},
+        {"max", books.energy_max},
+        {"final", books.energy_final},
+        {"torn", books.torn_energy},
+        {"dissipated", books.dissipated}}},
+      {"kinetic_max_j", books.kinetic_max},
+      {"kinetic_final_j", books.kinetic_final},
+      {"inverted_tets", books.inverted_tets},
+      {"first_non_finite_frame", books.first_non_finite_frame},
+      {"implicit_step_failures", books.step_failures},
+      {"rejected_states", books.rejected},
+      {"dropped_frames", t.dropped},
+      {"tears", books.tears},
+      {"torn_tets", books.torn_tets},
+      {"first_tear_frame", books.first_tear},
+      {"interrupted", r.interrupted},
+      {"failures", r.failures},
+      {"outputs",
+       {{"pvd", r.scene.name + ".pvd"},
+        {"vtu", r.vtus},
+        {"png", r.pngs},
+        {"stage_times_png", "stage_times.png"},
+        {"stage_times_csv", "stage_times.csv"},
+        {"stage_times_svg", "stage_times.svg"}}}};
+  summary["topology_versions"] = r.versions;
+  return summary;
+}
+
+/// The human summary on stdout.
+void print_summary(const RunReport& r, const std::filesystem::path& out) {
+  const sim::RunBooks& books = r.books;
+  const StageTimes& t = r.t;
+  std::printf("\n== tetcollide demo %s: %d frames (%.2f s simulated) in %.1f s\n",
+              r.scene.name.c_str(), r.done, r.done * r.scene.dt, r.run_s);
+  std::printf("   frame statistics received: %zu\n", r.stats_received);
+  std::printf("   collision time per frame, ms      p50      p99\n");
+  const auto row = [&](const char* name, const std::vector<double>& v) {
+    std::printf("     %-28s %8.3f %8.3f\n", name, demo::percentile(v, 0.5),
+                demo::percentile(v, 0.99));
+  };
+  row("round trip (client)", t.round_trip);
+  row("assembly", t.assembly);
+  row("broad phase", t.broad);
+  row("narrow phase", t.narrow);
+  row("depth", t.depth);
+  row("response", t.response);
+  row("compute (pipeline total)", t.compute);
+  row("publish", t.publish);
+  std::printf(
+      "   max penetration (local, exact depth): %.3f mm at frame %lld; %.3f mm at the end\n",
+      books.max_penetration * 1e3, static_cast<long long>(books.max_penetration_frame),
+      books.last_penetration * 1e3);
+  std::printf("   max depth (service FrameStats):       %.3f mm, max contacts %llu\n",
+              t.service_max_depth * 1e3, static_cast<unsigned long long>(t.max_contacts));
+  std::printf(
+      "   mechanical energy (J): initial %.4f, max %.4f (%+.3f %%), final %.4f (kinetic %.3g, "
+      "peak %.4g); inverted tets %zu\n",
+      books.energy_initial, books.energy_max, 100.0 * sim::energy_rise(books), books.energy_final,
+      books.kinetic_final, books.kinetic_max, books.inverted_tets);
+  if (books.tears > 0)
+    std::printf("   tearing: %zu tets removed in %zu cuts (first at frame %lld), %.4g J torn\n",
+                books.torn_tets, books.tears, static_cast<long long>(books.first_tear),
+                books.torn_energy);
+  if (books.rejected > 0)
+    std::printf("   rejected states: %zu (first: %s)\n", books.rejected,
+                books.first_rejection.c_str());
+  std::printf("   outputs in %s/:\n", out.string().c_str());
+  std::printf(
+      "     %s.pvd + %zu frame_NNNN.vtu (ParaView; fields depth, force, velocity, object)\n",
+      r.scene.name.c_str(), r.vtus);
+  for (const auto& p : r.pngs) std::printf("     %s\n", p.c_str());
+  std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
+}
+
 int run_demo(const DemoArgs& args) {
   // ---- the scene ----
   const auto roots = demo::data_roots();
@@ -591,131 +713,14 @@ int run_demo(const DemoArgs& args) {
     return report_error(st.error());
   const StageTimes t = stage_times(stats, round_trip, done);
   if (auto st = write_stage_times(out, scene.name, t); !st) return report_error(st.error());
-  const auto& rt_matched = t.round_trip;
-  const double service_max_depth = t.service_max_depth;
-  const std::uint64_t max_contacts = t.max_contacts;
-  const std::uint64_t dropped = t.dropped;
-  // The run's verdict: exit 1 when the service rejected a state, a tet inverted, or the
-  // mechanical energy rose more than 5 % above its initial value (docs/DEMO.md).
-  const double e0 = books.energy_initial;
-  const double energy_rise = (books.energy_max - e0) / std::max(std::abs(e0), 1e-12);
-  std::vector<std::string> failures;
-  if (books.rejected > 0)
-    failures.push_back("the service rejected " + std::to_string(books.rejected) +
-                       " states (first: " + books.first_rejection + ")");
-  if (books.first_non_finite_frame >= 0)
-    failures.push_back("the state became NaN or infinite at frame " +
-                       std::to_string(books.first_non_finite_frame));
-  if (books.inverted_tets > 0)
-    failures.push_back(std::to_string(books.inverted_tets) + " tets inverted (first at frame " +
-                       std::to_string(books.first_inverted_frame) + ")");
-  if (energy_rise > 0.05 || !std::isfinite(books.energy_max)) {
-    char msg[200];
-    std::snprintf(msg, sizeof msg,
-                  "the mechanical energy rose %.1f %% above its initial value (%.4g J -> max "
-                  "%.4g J): the integration is unstable",
-                  100.0 * energy_rise, e0, books.energy_max);
-    failures.emplace_back(msg);
-  }
-  nlohmann::json summary = {
-      {"scene", scene.name},
-      {"frames", done},
-      {"frame_stats_received", stats.size()},
-      {"dt_s", scene.dt},
-      {"integrator", scene.integrator},
-      {"substeps", scene.substeps},
-      {"newton_iterations_mean", books.frames > 0 ? static_cast<double>(books.newton_iterations) /
-                                                        static_cast<double>(books.frames)
-                                                  : 0.0},
-      {"simulated_s", done * scene.dt},
-      {"run_s", run_s},
-      {"objects", objects.size()},
-      {"collision_ms",
-       {{"round_trip", stage_json(rt_matched)},
-        {"assembly", stage_json(t.assembly)},
-        {"queue", stage_json(t.queue)},
-        {"broad", stage_json(t.broad)},
-        {"narrow", stage_json(t.narrow)},
-        {"depth", stage_json(t.depth)},
-        {"response", stage_json(t.response)},
-        {"compute", stage_json(t.compute)},
-        {"publish", stage_json(t.publish)}}},
-      {"max_penetration_m", books.max_penetration},
-      {"max_penetration_frame", books.max_penetration_frame},
-      {"final_penetration_m", books.last_penetration},
-      {"service_max_depth_m", service_max_depth},
-      {"max_contacts", max_contacts},
-      {"energy_j",
-       {{"initial", e0},
-        {"max", books.energy_max},
-        {"final", books.energy_final},
-        {"torn", books.torn_energy},
-        {"dissipated", books.dissipated}}},
-      {"kinetic_max_j", books.kinetic_max},
-      {"kinetic_final_j", books.kinetic_final},
-      {"inverted_tets", books.inverted_tets},
-      {"first_non_finite_frame", books.first_non_finite_frame},
-      {"implicit_step_failures", books.step_failures},
-      {"rejected_states", books.rejected},
-      {"dropped_frames", dropped},
-      {"tears", books.tears},
-      {"torn_tets", books.torn_tets},
-      {"first_tear_frame", books.first_tear},
-      {"interrupted", g_demo_stop.load()},
-      {"failures", failures},
-      {"outputs",
-       {{"pvd", scene.name + ".pvd"},
-        {"vtu", pvd.size()},
-        {"png", pngs},
-        {"stage_times_png", "stage_times.png"},
-        {"stage_times_csv", "stage_times.csv"},
-        {"stage_times_svg", "stage_times.svg"}}}};
-  summary["topology_versions"] = versions;
+  const std::vector<std::string> failures = sim::run_failures(books);
+  const RunReport report{scene, done,     run_s,    stats.size(),      t, books, pvd.size(),
+                         pngs,  versions, failures, g_demo_stop.load()};
   {
     std::ofstream js(out / "summary.json");
-    js << summary.dump(2) << "\n";
+    js << summary_json(report).dump(2) << "\n";
   }
-  // ---- the human summary ----
-  std::printf("\n== tetcollide demo %s: %d frames (%.2f s simulated) in %.1f s\n",
-              scene.name.c_str(), done, done * scene.dt, run_s);
-  std::printf("   frame statistics received: %zu\n", stats.size());
-  std::printf("   collision time per frame, ms      p50      p99\n");
-  const auto row = [&](const char* name, const std::vector<double>& v) {
-    std::printf("     %-28s %8.3f %8.3f\n", name, demo::percentile(v, 0.5),
-                demo::percentile(v, 0.99));
-  };
-  row("round trip (client)", rt_matched);
-  row("assembly", t.assembly);
-  row("broad phase", t.broad);
-  row("narrow phase", t.narrow);
-  row("depth", t.depth);
-  row("response", t.response);
-  row("compute (pipeline total)", t.compute);
-  row("publish", t.publish);
-  std::printf(
-      "   max penetration (local, exact depth): %.3f mm at frame %lld; %.3f mm at the end\n",
-      books.max_penetration * 1e3, static_cast<long long>(books.max_penetration_frame),
-      books.last_penetration * 1e3);
-  std::printf("   max depth (service FrameStats):       %.3f mm, max contacts %llu\n",
-              service_max_depth * 1e3, static_cast<unsigned long long>(max_contacts));
-  std::printf(
-      "   mechanical energy (J): initial %.4f, max %.4f (%+.3f %%), final %.4f (kinetic %.3g, "
-      "peak %.4g); inverted tets %zu\n",
-      e0, books.energy_max, 100.0 * energy_rise, books.energy_final, books.kinetic_final,
-      books.kinetic_max, books.inverted_tets);
-  if (books.tears > 0)
-    std::printf("   tearing: %zu tets removed in %zu cuts (first at frame %lld), %.4g J torn\n",
-                books.torn_tets, books.tears, static_cast<long long>(books.first_tear),
-                books.torn_energy);
-  if (books.rejected > 0)
-    std::printf("   rejected states: %zu (first: %s)\n", books.rejected,
-                books.first_rejection.c_str());
-  std::printf("   outputs in %s/:\n", out.string().c_str());
-  std::printf(
-      "     %s.pvd + %zu frame_NNNN.vtu (ParaView; fields depth, force, velocity, object)\n",
-      scene.name.c_str(), pvd.size());
-  for (const auto& p : pngs) std::printf("     %s\n", p.c_str());
-  std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
+  print_summary(report, out);
   if (args.spawn_daemon && daemon_exit != 0)
     std::fprintf(stderr, "tetcollide: warning: tetcollided exited with %d\n", daemon_exit);
   if (g_demo_stop.load()) return kExitFailure;

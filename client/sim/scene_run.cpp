@@ -3,9 +3,38 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace tc::sim {
+
+double energy_rise(const RunBooks& books) {
+  if (!std::isfinite(books.energy_max)) return std::numeric_limits<double>::infinity();
+  return (books.energy_max - books.energy_initial) /
+         std::max(std::abs(books.energy_initial), 1e-12);
+}
+
+std::vector<std::string> run_failures(const RunBooks& books, double max_rise) {
+  std::vector<std::string> failures;
+  if (books.rejected > 0)
+    failures.push_back("the service rejected " + std::to_string(books.rejected) +
+                       " states (first: " + books.first_rejection + ")");
+  if (books.first_non_finite_frame >= 0)
+    failures.push_back("the state became NaN or infinite at frame " +
+                       std::to_string(books.first_non_finite_frame));
+  if (books.inverted_tets > 0)
+    failures.push_back(std::to_string(books.inverted_tets) + " tets inverted (first at frame " +
+                       std::to_string(books.first_inverted_frame) + ")");
+  if (const double rise = energy_rise(books); !(rise <= max_rise)) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg,
+                  "the mechanical energy rose %.1f %% above its initial value (%.4g J -> max "
+                  "%.4g J): the integration is unstable",
+                  100.0 * rise, books.energy_initial, books.energy_max);
+    failures.emplace_back(msg);
+  }
+  return failures;
+}
 
 Expected<SceneRun> SceneRun::create(const SceneSpec& scene) {
   SceneRun run;

@@ -109,6 +109,15 @@ struct RunBooks {
   std::size_t frames = 0;
 };
 
+/// (max - initial) / |initial| of the books' mechanical energy (+inf when it went
+/// non-finite).
+double energy_rise(const RunBooks& books);
+
+/// Why a run fails its physics checks (empty: it passes): a state the service rejected, a
+/// NaN/Inf state, an inverted tet, or mechanical energy more than `max_rise` (relative)
+/// above its initial value. `tetcollide demo` exits 1 for any of them.
+std::vector<std::string> run_failures(const RunBooks& books, double max_rise = 0.05);
+
 class SceneRun {
  public:
   /// Loads the meshes, makes the bodies (pins, initial velocities) and their integrators.
