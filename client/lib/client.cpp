@@ -18,6 +18,9 @@
 namespace tc::client {
 namespace {
 
+/// History of the client's own ServiceStatus reader (see Client::connect).
+constexpr std::int32_t kClientStatusDepth = 4096;
+
 using Clock = std::chrono::steady_clock;
 constexpr std::size_t kKeptFrames = 256;   // answered frames remembered
 constexpr std::size_t kKeptEvents = 4096;  // status events kept until taken
@@ -440,7 +443,19 @@ std::unique_ptr<Client> Client::connect(const Options& options) {
   m.topology_writer = writer(protocol::Topic::kTopology);
   m.state_writer = writer(protocol::Topic::kState);
   m.forces_reader = reader(protocol::Topic::kForces);
-  m.status_reader = reader(protocol::Topic::kStatus);
+  {
+    // The service's verdicts come in bursts (one per object of a scene registered at
+    // once: 40 ellipsoids) while nobody takes them (the client pumps only while it
+    // waits); the topic's KEEP_LAST 32 lost the oldest verdicts of such a burst and
+    // wait_registered() sat out its timeout for each (the demo-recording replay took 40 s
+    // about one run in three). This reader keeps kClientStatusDepth samples instead; the
+    // writer's history, and so what a late joiner gets, stays the topic's 32.
+    const auto qos = protocol::topic_qos(protocol::Topic::kStatus);
+    dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kClientStatusDepth);
+    m.status_reader =
+        check(dds_create_reader(subscriber, topic(protocol::Topic::kStatus), qos.get(), nullptr),
+              "dds_create_reader(ServiceStatus)");
+  }
   m.stats_reader = reader(protocol::Topic::kStats);
   m.waitset = check(dds_create_waitset(m.participant), "dds_create_waitset");
   m.wakeup = check(dds_create_guardcondition(m.participant), "dds_create_guardcondition");
