@@ -165,7 +165,11 @@ TEST(DemoTest, RecordingsOfTheDemoScenesReplayBitForBit) {
       << "no demo recordings in '" << demo_recordings().string() << "' (TC_RECORDINGS unset?)";
   const auto dir = make_temp_dir("itest-demo-replay");
   const std::uint32_t domain = private_domain();
-  DaemonProcess daemon(dir, domain, "version: 1\nlog:\n  timing_summary_period_s: 0\n");
+  // The demo records with the contact stiffness blocks on (the implicit integrator needs
+  // them), so the replaying service sends them too.
+  DaemonProcess daemon(dir, domain,
+                       "version: 1\nlog:\n  timing_summary_period_s: 0\n"
+                       "pipeline:\n  compute_stiffness: true\n");
   ASSERT_TRUE(daemon.start()) << daemon.log_text();
   std::vector<std::filesystem::path> files;
   for (const auto& e : std::filesystem::directory_iterator(demo_recordings()))
