@@ -28,7 +28,8 @@ struct PendingState {
   std::string object;
   std::uint32_t version = 0;
   std::int64_t frame = 0;
-  Positions positions;  ///< 3 x n, metres; empty when rejected
+  Positions positions;   ///< 3 x n, metres; empty when rejected
+  Positions velocities;  ///< 3 x n, m/s, or empty (the state sent none)
   Clock::time_point received{};
   std::int32_t rejected_code = 0;  ///< STATUS_* != 0 when rejected
   std::string rejected_message;

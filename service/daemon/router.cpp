@@ -268,6 +268,7 @@ void Router::admit(const std::string& scene_name, Scene& scene, const StateView&
   p.version = s.topology_version;
   p.frame = s.frame;
   p.positions = to_positions(s.positions);
+  if (!s.velocities.empty()) p.velocities = to_positions(s.velocities);
   p.received = received;
   scene.assembler.add(std::move(p));
 }
@@ -311,6 +312,7 @@ void Router::try_dispatch(const std::string& scene_name, Scene& scene, Clock::ti
       in.object = std::move(s.object);
       in.topology_version = s.version;
       in.positions = std::move(s.positions);
+      in.velocities = std::move(s.velocities);
       job.states.push_back(std::move(in));
       job.state_frames.push_back(s.frame);
     }

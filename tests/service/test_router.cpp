@@ -182,6 +182,25 @@ TEST_F(RouterTest, FrameDispatchedWhenEveryObjectSent) {
   EXPECT_TRUE(frames[0].rejected.empty());
 }
 
+TEST_F(RouterTest, VelocitiesTravelWithTheirState) {
+  // The contact damping reads them (Pipeline); a state without them carries none.
+  add_object("s", "a");
+  add_object("s", "b");
+  State with{"s", "a", 1, 1, std::vector<double>(12, 0.5)};
+  const std::vector<double> v = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
+  StateView view = with.view();
+  view.velocities = v;
+  router().on_state(view, now);
+  send("s", "b", 1);
+  const auto frames = jobs.frames();
+  ASSERT_EQ(frames.size(), 1u);
+  ASSERT_EQ(frames[0].states.size(), 2u);
+  ASSERT_EQ(frames[0].states[0].object, "a");
+  ASSERT_EQ(frames[0].states[0].velocities.cols(), 4);
+  EXPECT_EQ(frames[0].states[0].velocities(2, 3), 12.0);
+  EXPECT_EQ(frames[0].states[1].velocities.size(), 0);
+}
+
 TEST_F(RouterTest, StaticObjectsAreNotWaitedFor) {
   add_object("s", "floor", 1, true);
   add_object("s", "a");

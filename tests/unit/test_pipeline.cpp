@@ -23,7 +23,7 @@ TetMesh box_at(double x0, int n = 4) {
 }
 
 FrameObjectInput state_of(const std::string& name, const TetMesh& mesh, std::uint32_t version = 0) {
-  return {name, version, mesh.positions};
+  return {name, version, mesh.positions, {}};
 }
 
 Eigen::Vector3d total(const FrameOutput& out, const std::string& name) {
@@ -488,6 +488,40 @@ TEST(SymmetricOverlap, OrdinaryContactsAreNotTakenForSymmetric) {
   const FrameOutput out = pipeline.run_frame(0, states);
   EXPECT_GT(out.stats.contacts, 0u);
   EXPECT_EQ(out.stats.symmetric_pairs, 0u);
+}
+
+// Contact damping (ObjectParams::damping) reads the states' velocities: approaching
+// stiffens the push, separating softens it, no velocities is the undamped force.
+TEST(Pipeline, DampingReadsTheStatesVelocities) {
+  TetMesh b = load_scaled("box.msh", kOne);
+  b.positions.colwise() += Eigen::Vector3d(0.05, 0.03, 0.295);
+  const TetMesh a = load_scaled("box.msh", kOne);
+  ObjectParams params;
+  params.response = ResponseKind::kPoint;
+  params.damping = 2e3;
+  Pipeline pipeline;
+  ASSERT_TRUE(pipeline.set_topology("a", 1, a, params).ok());
+  ASSERT_TRUE(pipeline.set_topology("b", 1, b, params).ok());
+  const auto push_on_b = [&](double vz) {  // b moving along z at vz, a at rest
+    std::vector<FrameObjectInput> states = {state_of("a", a, 1), state_of("b", b, 1)};
+    if (vz != 0.0) states[1].velocities = Positions::Constant(3, b.num_nodes(), 0.0);
+    if (vz != 0.0) states[1].velocities.row(2).setConstant(vz);
+    const FrameOutput out = pipeline.run_frame(0, states);
+    EXPECT_TRUE(out.errors.empty());
+    return total(out, "b").z();
+  };
+  const double still = push_on_b(0.0), down = push_on_b(-0.1), up = push_on_b(0.1);
+  EXPECT_GT(still, 0.0);
+  EXPECT_GT(down, still * 1.01);  // b sinking into a: more push
+  EXPECT_LT(up, still * 0.99);    // b leaving: less
+  EXPECT_GE(up, 0.0);             // never a pull
+  // Velocities of the wrong size or non-finite reject that state only.
+  std::vector<FrameObjectInput> bad = {state_of("a", a, 1), state_of("b", b, 1)};
+  bad[1].velocities = Positions::Zero(3, 2);
+  const FrameOutput out = pipeline.run_frame(1, bad);
+  ASSERT_EQ(out.errors.size(), 1u);
+  EXPECT_EQ(out.errors[0].object, "b");
+  EXPECT_NE(out.errors[0].error.message.find("velocities"), std::string::npos);
 }
 
 TEST(ContactDepth, FaceOnFaceWithALateralOffsetPushesAlongTheNormal) {

@@ -35,7 +35,8 @@ struct SceneObject {
   ObjectParams params;
   TetMesh mesh;  ///< tets, node ids, rest positions
   Topology topology;
-  Positions positions;  ///< current frame's positions
+  Positions positions;   ///< current frame's positions
+  Positions velocities;  ///< current frame's velocities, or empty (at rest)
   std::unique_ptr<CollisionBody> body;
   std::unique_ptr<DepthSolver> depth;
   bool static_depth_ready = false;  ///< static objects: full map computed once
@@ -117,7 +118,9 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   out.frame = frame;
   auto& objects = impl_->objects;
 
-  // 1. States: checked object by object; a bad one is rejected, the rest run.
+  // 1. States: checked object by object; a bad one is rejected, the rest run. Velocities
+  //    hold for the frame they came with: an object without a state counts as at rest.
+  for (auto& [name, obj] : objects) obj->velocities.resize(3, 0);
   for (const FrameObjectInput& state : states) {
     const auto it = objects.find(state.object);
     const std::string who = "object '" + state.object + "' frame " + std::to_string(frame);
@@ -141,6 +144,15 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
                                              std::to_string(obj.mesh.num_nodes()) + " nodes"}});
       continue;
     }
+    if (state.velocities.size() != 0 &&
+        (state.velocities.cols() != obj.mesh.num_nodes() || !state.velocities.allFinite())) {
+      out.errors.push_back(
+          {state.object,
+           {ErrorCode::kInvalidArgument,
+            who + ": velocities must be empty or " + std::to_string(obj.mesh.num_nodes()) +
+                " finite columns (got " + std::to_string(state.velocities.cols()) + ")"}});
+      continue;
+    }
     const ValidationReport report = validate_positions(state.positions, obj.mesh.tets);
     if (Status st = require_valid(report, who); !st) {
       out.errors.push_back({state.object, st.error()});
@@ -149,6 +161,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
       obj.static_depth_ready = false;  // a "static" object moved: recompute once
     obj.positions = state.positions;
+    obj.velocities = state.velocities;
     obj.has_state = true;
   }
 
@@ -235,10 +248,14 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (contacts[p].empty()) continue;
     SceneObject& a = *list[pairs[p].first];
     SceneObject& b = *list[pairs[p].second];
-    const ResponseObject ra{&a.positions,     a.mesh.tets, &a.topology,
-                            a.depth->depth(), nullptr,     a.depth->anchor()};
-    const ResponseObject rb{&b.positions,     b.mesh.tets, &b.topology,
-                            b.depth->depth(), nullptr,     b.depth->anchor()};
+    const auto velocities_of = [](const SceneObject& o) {
+      return o.velocities.cols() == o.positions.cols() && o.velocities.size() != 0 ? &o.velocities
+                                                                                   : nullptr;
+    };
+    const ResponseObject ra{&a.positions,     a.mesh.tets,      &a.topology,
+                            a.depth->depth(), velocities_of(a), a.depth->anchor()};
+    const ResponseObject rb{&b.positions,     b.mesh.tets,      &b.topology,
+                            b.depth->depth(), velocities_of(b), b.depth->anchor()};
     ResponseOptions options = pair_options(a.params, b.params);
     if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
     if (impl_->config.density_threshold > 0.0)

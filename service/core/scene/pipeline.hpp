@@ -39,7 +39,10 @@ struct PipelineConfig {
 struct FrameObjectInput {
   std::string object;
   std::uint32_t topology_version = 0;
-  Positions positions;  ///< 3 x n, metres, n = the registered topology's node count
+  Positions positions;     ///< 3 x n, metres, n = the registered topology's node count
+  Positions velocities{};  ///< 3 x n, m/s, or empty: the contact damping reads them
+                           ///< (ObjectParams::damping; an object without them counts as
+                           ///< at rest)
 };
 
 /// Per-stage timings and counts of one frame.
