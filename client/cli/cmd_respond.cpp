@@ -57,12 +57,11 @@ int run_respond(const RespondArgs& args) {
   if (!a) return report_error(a.error());
   auto b = read_mesh(args.file_b);
   if (!b) return report_error(b.error());
-  if (args.scale_a.size() == 3)
-    a->positions = Eigen::Vector3d(args.scale_a[0], args.scale_a[1], args.scale_a[2]).asDiagonal() *
-                   a->positions;
-  if (args.scale_b.size() == 3)
-    b->positions = Eigen::Vector3d(args.scale_b[0], args.scale_b[1], args.scale_b[2]).asDiagonal() *
-                   b->positions;
+  const auto scale = [](Positions& x, const std::vector<double>& s) {
+    if (s.size() == 3) x = Eigen::Vector3d(s[0], s[1], s[2]).asDiagonal() * x;
+  };
+  scale(a->positions, args.scale_a);
+  scale(b->positions, args.scale_b);
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d shift(args.move_b[0], args.move_b[1], args.move_b[2]);
     b->positions.colwise() += shift;

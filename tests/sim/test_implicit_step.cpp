@@ -9,19 +9,15 @@
 #include "body.hpp"
 #include "implicit_step.hpp"
 #include "sanitizer.hpp"
+#include "sim_fixtures.hpp"
 #include "test_meshes.hpp"
 
 namespace tc::sim {
 namespace {
 
-const Eigen::Vector3d kNoGravity = Eigen::Vector3d::Zero();
-const Eigen::Vector3d kGravity{0.0, 0.0, -9.81};
-
-Body make_body(TetMesh mesh, Material m = {}) {
-  auto b = Body::create(std::move(mesh), m);
-  EXPECT_TRUE(b) << b.error().message;
-  return std::move(*b);
-}
+using test::kGravity;
+using test::kNoGravity;
+using test::make_body;
 
 /// A penalty floor z = 0 as the service would send it: per node below the floor, the
 /// force k (-z) e_z and the block df/dx = -k e_z e_z^T (k in N/m per node).

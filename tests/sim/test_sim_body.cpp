@@ -12,19 +12,15 @@
 #include "penetration.hpp"
 #include "sanitizer.hpp"
 #include "scene_file.hpp"
+#include "sim_fixtures.hpp"
 #include "test_meshes.hpp"
 
 namespace tc::sim {
 namespace {
 
-const Eigen::Vector3d kNoGravity = Eigen::Vector3d::Zero();
-const Eigen::Vector3d kGravity{0.0, 0.0, -9.81};
-
-Body make_body(TetMesh mesh, Material m = {}) {
-  auto b = Body::create(std::move(mesh), m);
-  EXPECT_TRUE(b) << b.error().message;
-  return std::move(*b);
-}
+using test::kGravity;
+using test::kNoGravity;
+using test::make_body;
 
 TEST(SimBody, LumpedMassesSumToDensityTimesVolume) {
   const TetMesh box = test::structured_box(3, 2, 2, {0, 0, 0}, {0.3, 0.2, 0.2});

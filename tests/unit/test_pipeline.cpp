@@ -461,18 +461,22 @@ TEST(SymmetricOverlap, CoincidentCopiesAreSeparated) {
   }
 }
 
+/// One frame of objects "a" and "b" at their given positions, default parameters.
+FrameOutput one_frame(const TetMesh& a, const TetMesh& b) {
+  Pipeline pipeline;
+  EXPECT_TRUE(pipeline.set_topology("a", 1, a, {}).ok());
+  EXPECT_TRUE(pipeline.set_topology("b", 1, b, {}).ok());
+  return pipeline.run_frame(
+      0, std::vector<FrameObjectInput>{state_of("a", a, 1), state_of("b", b, 1)});
+}
+
 TEST(SymmetricOverlap, ANearlyCoincidentCopyIsPushedAwayFromTheOther) {
   // 2 mm apart along x the pushes no longer cancel (the check does not fire, measured
   // ratio above 0.1) and the depth directions push the copies apart along x.
   const TetMesh a = load_scaled("box.msh", kOne);
   TetMesh b = a;
   b.positions.colwise() += Eigen::Vector3d(0.002, 0.0, 0.0);
-  Pipeline pipeline;
-  ASSERT_TRUE(pipeline.set_topology("a", 1, a, {}).ok());
-  ASSERT_TRUE(pipeline.set_topology("b", 1, b, {}).ok());
-  const std::vector<FrameObjectInput> states = {state_of("a", a, 1), state_of("b", b, 1)};
-  const FrameOutput out = pipeline.run_frame(0, states);
-  const Eigen::Vector3d fa = total(out, "a");
+  const Eigen::Vector3d fa = total(one_frame(a, b), "a");
   EXPECT_LT(fa.x(), 0.0) << fa.transpose();
   EXPECT_GT(std::abs(fa.x()), std::hypot(fa.y(), fa.z())) << fa.transpose();
 }
@@ -480,12 +484,7 @@ TEST(SymmetricOverlap, ANearlyCoincidentCopyIsPushedAwayFromTheOther) {
 TEST(SymmetricOverlap, OrdinaryContactsAreNotTakenForSymmetric) {
   TetMesh b = load_scaled("box.msh", kOne);
   b.positions.colwise() += Eigen::Vector3d(0.05, 0.03, 0.295);
-  Pipeline pipeline;
-  const TetMesh a = load_scaled("box.msh", kOne);
-  ASSERT_TRUE(pipeline.set_topology("a", 1, a, {}).ok());
-  ASSERT_TRUE(pipeline.set_topology("b", 1, b, {}).ok());
-  const std::vector<FrameObjectInput> states = {state_of("a", a, 1), state_of("b", b, 1)};
-  const FrameOutput out = pipeline.run_frame(0, states);
+  const FrameOutput out = one_frame(load_scaled("box.msh", kOne), b);
   EXPECT_GT(out.stats.contacts, 0u);
   EXPECT_EQ(out.stats.symmetric_pairs, 0u);
 }

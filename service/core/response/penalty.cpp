@@ -65,11 +65,12 @@ struct Direction {
   bool forced = false;     ///< the pair direction of a symmetric overlap's separating pass
 };
 
-/// Nearest boundary face of Y to one or two points, among the candidates of a tet.
+/// The nearest boundary face of Y to a point, among the candidates of a tet.
 struct FaceHit {
   double sq_dist = std::numeric_limits<double>::infinity();
   Index face = -1;
   Vec3 closest = Vec3::Zero();
+  Vec3 normal = Vec3::Zero();  ///< the face's outward unit normal (set by face_direction)
 };
 
 /// Outward unit normal of boundary face f of Y (the owning tet's orientation decides the
@@ -160,35 +161,14 @@ FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, dou
   return best;
 }
 
-/// The direction by the depth (direction_by_depth, below), or, in the separating pass of
-/// a symmetric overlap (ResponseOptions::along_pair_direction), the pair direction with
-/// the depth found as usual.
-Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                             const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit);
-
-Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
-  Direction dir = direction_by_depth(y, t, td, x, o, pair_direction, hit);
-  if (o.along_pair_direction && pair_direction.allFinite() && pair_direction.squaredNorm() > 0.5) {
-    dir.n = pair_direction.normalized();
-    dir.gradient.setZero();
-    dir.gamma = 1.0;
-    dir.fallback = Fallback::kPairDirection;
-    dir.forced = true;
-  }
-  return dir;
-}
-
 /// Push-out direction at x from its nearest face: towards the closest point, or the
 /// face's outward normal when x is (within rounding) on the face or on its outer side.
-bool face_direction(const ResponseObject& y, const FaceHit& hit, const Vec3& x, double size,
-                    Vec3& n) {
+bool face_direction(const ResponseObject& y, FaceHit& hit, const Vec3& x, double size, Vec3& n) {
   if (hit.face < 0 || !std::isfinite(hit.sq_dist)) return false;
-  Vec3 normal;
-  if (!boundary_face_normal(y, hit.face, normal)) return false;
+  if (!boundary_face_normal(y, hit.face, hit.normal)) return false;
   const Vec3 out = hit.closest - x;
   const double dist = std::sqrt(hit.sq_dist);
-  n = dist > 1e-9 * size && out.dot(normal) > 0.0 ? Vec3(out / dist) : normal;
+  n = dist > 1e-9 * size && out.dot(hit.normal) > 0.0 ? Vec3(out / dist) : hit.normal;
   return n.allFinite();
 }
 
@@ -213,7 +193,9 @@ bool gradient_direction(const TetData& td, const ResponseOptions& o, Direction& 
 
 /// The direction of a contact at x in tet t of Y (and on the nearest-face path that
 /// face, in `hit`), by the chain of docs/RESPONSE.md "Depth and direction": the
-/// evaluation asked for, then the other one, then the pair direction, then +z.
+/// evaluation asked for, then the other one, then the pair direction, then +z. In the
+/// separating pass of a symmetric overlap (ResponseOptions::along_pair_direction) the
+/// pair direction replaces the result, the depth being found as usual.
 Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
                              const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
   Direction dir;
@@ -245,6 +227,19 @@ Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td
   } else {
     dir.n = Vec3::UnitZ();
     dir.fallback = Fallback::kAxis;
+  }
+  return dir;
+}
+
+Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
+                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
+  Direction dir = direction_by_depth(y, t, td, x, o, pair_direction, hit);
+  if (o.along_pair_direction && pair_direction.allFinite() && pair_direction.squaredNorm() > 0.5) {
+    dir.n = pair_direction.normalized();
+    dir.gradient.setZero();
+    dir.gamma = 1.0;
+    dir.fallback = Fallback::kPairDirection;
+    dir.forced = true;
   }
   return dir;
 }
@@ -413,8 +408,7 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   Direction dir = direction_at(target, c.tet, td, mid, options, pair_direction, hit);
   double d1 = b1.dot(td.d), d2 = b2.dot(td.d);
   if (dir.from_face) {
-    Vec3 normal = dir.n;
-    if (!boundary_face_normal(target, hit.face, normal)) normal = dir.n;
+    const Vec3 normal = hit.normal;  // set with the direction: the face has an area
     if (!dir.forced) dir.n = normal;
     const double p1 = std::max(0.0, (hit.closest - x1).dot(normal));
     const double p2 = std::max(0.0, (hit.closest - x2).dot(normal));
