@@ -160,6 +160,10 @@ int run_respond(const RespondArgs& args) {
                          {{"detect", median(detect_ms)},
                           {"depth", median(depth_ms)},
                           {"response", median(response_ms)}}}};
+    // Every object is a key, 0 when out of contact.
+    nlohmann::json settled = {{"a", 0}, {"b", 0}};
+    for (const auto& [name, n] : output.settled_by_object) settled[name] = n;
+    j["settled_nodes"] = settled;
     if (args.exact_check)
       j["exact_check"] = {{"point_contacts", audit.contacts}, {"within_10_percent", audit.within},
                           {"beyond_1_5x", audit.beyond_1_5},  {"zero_depth", audit.zero},

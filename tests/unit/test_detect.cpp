@@ -499,6 +499,49 @@ TEST(Detector, ReusedAcrossFramesMatchesOneOffs) {
   }
 }
 
+// A small tool pressed into a large object (issue 13): with the cluster cull only the
+// tets near the tool get bounds, and the contacts are exactly those of the full pass,
+// for every broad phase, with the large object as A or as B (kBvh: B's few tets in a
+// tree of their own, or B's persistent tree), over frames that move the tool.
+TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
+  const int n = test::kSanitized ? 14 : 24;
+  const Object large(test::structured_box(n, n, n / 3, Vector3d(0, 0, 0), Vector3d(1, 1, 0.3)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  for (const BroadPhaseKind kind :
+       {BroadPhaseKind::kGrid, BroadPhaseKind::kHash, BroadPhaseKind::kSap, BroadPhaseKind::kBvh}) {
+    for (const bool large_is_a : {true, false}) {
+      SCOPED_TRACE(std::string(broad_phase_name(kind)) + (large_is_a ? " large=a" : " large=b"));
+      DetectOptions on, off;
+      on.broad_phase = off.broad_phase = kind;
+      off.cluster_cull = false;
+      CollisionBody body_large(large.mesh.tets, large.topo);
+      const Object tool_rest(tool0);
+      CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
+      Detector with(on), without(off);
+      body_large.set_positions(large.mesh.positions);
+      for (int frame = 0; frame < 4; ++frame) {
+        SCOPED_TRACE(frame);
+        // Pressed 2 cm into the top face, sliding across it.
+        const Object tool(moved(tool0, Matrix3d::Identity(),
+                                Vector3d(0.3 + 0.1 * frame, 0.45, 0.3 + 0.06 - 0.02)));
+        body_tool.set_positions(tool.mesh.positions);
+        CollisionBody& a = large_is_a ? body_large : body_tool;
+        CollisionBody& b = large_is_a ? body_tool : body_large;
+        PairContacts got, want;
+        DetectStats st_on, st_off;
+        with.detect(a, b, got, &st_on);
+        without.detect(a, b, want, &st_off);
+        EXPECT_FALSE(want.overlapping.empty());
+        expect_identical(got, want);
+        EXPECT_EQ(st_on.candidates, st_off.candidates);
+        const std::size_t large_near = large_is_a ? st_on.tets_a_near : st_on.tets_b_near;
+        EXPECT_EQ(large_is_a ? st_off.tets_a_near : st_off.tets_b_near, large.mesh.tets.size());
+        EXPECT_LT(large_near * 10, large.mesh.tets.size()) << large_near;
+      }
+    }
+  }
+}
+
 TEST(Detect, NonFiniteNodesAreIgnored) {
   const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
   Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.5, 0.5), Vector3d(1.5, 1.5, 1.5)));

@@ -125,31 +125,50 @@ std::optional<BroadPhaseKind> parse_broad_phase(std::string_view name) {
   return std::nullopt;
 }
 
+namespace {
+
+/// Box (and sphere when `sphere` is set) of one tet.
+void tet_bounds(const Positions& positions, const Tet& t, Aabb& box_out, BoundingSphere* sphere) {
+  const Vector3d c0 = positions.col(t[0]), c1 = positions.col(t[1]), c2 = positions.col(t[2]),
+                 c3 = positions.col(t[3]);
+  const Aabb box{c0.cwiseMin(c1).cwiseMin(c2.cwiseMin(c3)),
+                 c0.cwiseMax(c1).cwiseMax(c2.cwiseMax(c3))};
+  // Checked corner by corner: min/max may drop a NaN.
+  const bool finite = c0.allFinite() && c1.allFinite() && c2.allFinite() && c3.allFinite();
+  box_out = finite ? box : Aabb{};
+  if (sphere == nullptr) return;
+  if (!finite) {
+    *sphere = BoundingSphere{};
+    return;
+  }
+  const Vector3d center = 0.25 * (c0 + c1 + c2 + c3);
+  const double r2 = std::max(std::max((c0 - center).squaredNorm(), (c1 - center).squaredNorm()),
+                             std::max((c2 - center).squaredNorm(), (c3 - center).squaredNorm()));
+  // A hair larger than the rounded radius, so the sphere surely holds the corners.
+  *sphere = {center, std::sqrt(r2) * (1.0 + 16.0 * kEps)};
+}
+
+}  // namespace
+
 void TetBounds::compute(const Positions& positions, std::span<const Tet> tets, bool with_spheres) {
   const std::size_t m = tets.size();
   boxes.resize(m);
-  spheres.resize(with_spheres ? m : 0);
+  if (with_spheres) spheres.resize(m);  // else kept: entries made earlier stay valid
   detail::for_chunks(m, 2048, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i)
+      tet_bounds(positions, tets[i], boxes[i], with_spheres ? &spheres[i] : nullptr);
+  });
+}
+
+void TetBounds::compute(const Positions& positions, std::span<const Tet> tets,
+                        std::span<const Index> which, bool with_spheres) {
+  const std::size_t m = tets.size();
+  if (boxes.size() != m) boxes.resize(m);
+  if (with_spheres && spheres.size() != m) spheres.resize(m);
+  detail::for_chunks(which.size(), 2048, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t i = begin; i < end; ++i) {
-      const Tet& t = tets[i];
-      const Vector3d c0 = positions.col(t[0]), c1 = positions.col(t[1]), c2 = positions.col(t[2]),
-                     c3 = positions.col(t[3]);
-      Aabb box{c0.cwiseMin(c1).cwiseMin(c2.cwiseMin(c3)),
-               c0.cwiseMax(c1).cwiseMax(c2.cwiseMax(c3))};
-      // Checked corner by corner: min/max may drop a NaN.
-      const bool finite = c0.allFinite() && c1.allFinite() && c2.allFinite() && c3.allFinite();
-      boxes[i] = finite ? box : Aabb{};
-      if (!with_spheres) continue;
-      if (!finite) {
-        spheres[i] = BoundingSphere{};
-        continue;
-      }
-      const Vector3d center = 0.25 * (c0 + c1 + c2 + c3);
-      const double r2 =
-          std::max(std::max((c0 - center).squaredNorm(), (c1 - center).squaredNorm()),
-                   std::max((c2 - center).squaredNorm(), (c3 - center).squaredNorm()));
-      // A hair larger than the rounded radius, so the sphere surely holds the corners.
-      spheres[i] = {center, std::sqrt(r2) * (1.0 + 16.0 * kEps)};
+      const auto t = static_cast<std::size_t>(which[i]);
+      tet_bounds(positions, tets[t], boxes[t], with_spheres ? &spheres[t] : nullptr);
     }
   });
 }
@@ -520,8 +539,9 @@ void BroadPhase::bvh_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b, con
                          bvh.tree->query(box, bvh.tet_boxes, found);
                          std::sort(found.begin(), found.end());
                          for (const Index tb : found) {
-                           const Index k = bvh.slot[tb];
-                           if (k >= 0 && box.overlaps(b.boxes[k])) part.push_back({a.tets[i], tb});
+                           const Index k = bvh.over_side ? tb : bvh.slot[tb];
+                           if (k >= 0 && box.overlaps(b.boxes[k]))
+                             part.push_back({a.tets[i], bvh.over_side ? b.tets[k] : tb});
                          }
                        }
                      });

@@ -75,6 +75,10 @@ struct TetBounds {
   /// @param[in] positions  3 x n node positions, metres.
   /// @param[in] tets       m tets, indices in [0, n).
   void compute(const Positions& positions, std::span<const Tet> tets, bool spheres = true);
+  /// The same for the tets listed in `which` only (indices into `tets`); the arrays are
+  /// sized for every tet and the other entries are left as they were.
+  void compute(const Positions& positions, std::span<const Tet> tets, std::span<const Index> which,
+               bool spheres);
 };
 
 /// AABB tree over the tets of one object: the shape is built once per topology (median
@@ -130,6 +134,9 @@ struct BvhSide {
   const AabbTree* tree = nullptr;   ///< refitted tree over every tet of B
   std::span<const Aabb> tet_boxes;  ///< per tet of B: the boxes the tree was refitted to
   std::span<const Index> slot;      ///< per tet of B: its index in side b, or -1
+  /// Set when the tree was built over side b itself (items are indices into b.tets and
+  /// tet_boxes is b.boxes); then `slot` is not used.
+  bool over_side = false;
 };
 
 /// Finds candidate tet pairs between two objects, keeping its buffers across calls. One

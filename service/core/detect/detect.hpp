@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <span>
 #include <utility>
@@ -37,6 +38,11 @@ struct DetectOptions {
   bool intruding_nodes = true;
   /// Compute edges_a_in_b / edges_b_in_a.
   bool intruding_edges = true;
+  /// Give bounds and the broad phase only the tets of the spatial clusters that meet the
+  /// overlap box (and, for kBvh, a tree over B's few tets there when they are less than
+  /// half of B). Off: every tet every frame, as before clusters. The contacts are the
+  /// same either way (tests/unit/test_detect.cpp checks it); only the cost differs.
+  bool cluster_cull = true;
 };
 
 /// What one detect() call did and how long it took.
@@ -44,6 +50,8 @@ struct DetectStats {
   bool boxes_overlap = false;     ///< object boxes touch (else nothing else ran)
   std::size_t tets_a_in_box = 0;  ///< tets of A whose box meets the overlap box
   std::size_t tets_b_in_box = 0;  ///< same for B
+  std::size_t tets_a_near = 0;    ///< tets of A whose bounds were looked at (clusters)
+  std::size_t tets_b_near = 0;    ///< same for B
   std::size_t candidates = 0;     ///< tet pairs out of the broad phase
   std::size_t overlapping = 0;    ///< tet pairs out of the narrow phase
   double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
@@ -74,6 +82,15 @@ class CollisionBody {
   /// yourself before running detect() on several pairs sharing this body concurrently.
   void prepare(BroadPhaseKind kind);
 
+  /// The tets that may meet `region` this frame, sorted: every tet whose box overlaps it,
+  /// and others of the same clusters. Cost: one box test per cluster plus the tets
+  /// returned, not a pass over every tet (set_positions() refits the clusters).
+  void tets_near(const Aabb& region, std::vector<Index>& out) const;
+
+  /// Computes this frame's bounds (boxes, and spheres when `spheres` is set) of the
+  /// listed tets that do not have them yet. Not thread-safe for one body.
+  void ensure_bounds(std::span<const Index> tets, bool spheres);
+
   /// Box of the finite node positions of this frame (empty before set_positions()).
   [[nodiscard]] const Aabb& box() const { return box_; }
   [[nodiscard]] Index num_nodes() const { return num_nodes_; }
@@ -91,6 +108,17 @@ class CollisionBody {
   Csr node_tets_;                                ///< n rows: tets using the node
   Csr edge_tets_;                                ///< edge rows: tets using the edge
   std::vector<std::array<Index, 6>> tet_edges_;  ///< m x 6: edge ids (kTetEdges order)
+
+  /// Spatial clusters, made once per topology from the first positions: tets sorted
+  /// along a Morton curve of their centroids and cut into runs of 64; each frame a
+  /// cluster's box is refitted from the nodes its tets use.
+  void build_clusters(const Positions& positions);
+  Csr cluster_tets_;             ///< per cluster: its tets, sorted
+  Csr cluster_nodes_;            ///< per cluster: the nodes its tets use, sorted
+  std::vector<Aabb> tet_boxes_;  ///< per cluster: box of its tets, this frame
+  std::vector<std::uint32_t> box_frame_, sphere_frame_;  ///< per tet: frame bounds were made
+  std::uint32_t frame_ = 0;   ///< set_positions() calls, never 0 after the first
+  std::vector<Index> stale_;  ///< scratch for ensure_bounds()
 
   const Positions* positions_ = nullptr;
   Aabb box_;
@@ -150,7 +178,9 @@ class Detector {
   std::vector<Aabb> boxes_a_, boxes_b_;     ///< their boxes clipped to it
   detail::ChunkBuffers<Index> index_parts_;
   detail::ChunkBuffers<Aabb> box_parts_;
-  std::vector<Index> box_slot_;  ///< scratch: tet of B -> index in subset_b_, or -1
+  std::vector<Index> box_slot_;         ///< scratch: tet of B -> index in subset_b_, or -1
+  std::vector<Index> near_a_, near_b_;  ///< tets of the clusters meeting the overlap box
+  AabbTree local_tree_;                 ///< kBvh over subset_b_ when it is a small part of B
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
   Geometry geom_a_, geom_b_;

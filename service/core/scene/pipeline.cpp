@@ -236,6 +236,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   });
   for (std::size_t i = 0; i < involved.size(); ++i) {
     out.stats.settled_nodes += settled[i];
+    out.settled_by_object.emplace_back(involved[i]->name, settled[i]);
     if (!depth_errors[i].empty())
       out.errors.push_back({involved[i]->name, {ErrorCode::kInvalidArgument, depth_errors[i]}});
   }

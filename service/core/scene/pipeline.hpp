@@ -10,6 +10,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/common/result.hpp"
@@ -91,6 +92,9 @@ struct FrameOutput {
   std::vector<std::string> left_out;
   /// With PipelineConfig::record_contacts: pairs in order, A's nodes in B first.
   std::vector<FramePointContact> point_contacts;
+  /// Nodes whose depth this frame's depth maps settled, per object in contact (by name;
+  /// a static object's full map counts on the frame that computes it, else 0).
+  std::vector<std::pair<std::string, std::size_t>> settled_by_object;
 };
 
 class Pipeline {
