@@ -131,7 +131,7 @@ struct BroadPhaseSide {
 
 /// kBvh only: object B's tree and how its tets map to B's side.
 struct BvhSide {
-  const AabbTree* tree = nullptr;   ///< refitted tree over every tet of B
+  const AabbTree* tree = nullptr;   ///< tree over every tet of B, or over side b
   std::span<const Aabb> tet_boxes;  ///< per tet of B: the boxes the tree was refitted to
   std::span<const Index> slot;      ///< per tet of B: its index in side b, or -1
   /// Set when the tree was built over side b itself (items are indices into b.tets and

@@ -143,13 +143,8 @@ std::uint64_t spread_bits(std::uint64_t v) {
 }  // namespace
 
 void CollisionBody::build_clusters(const Positions& positions) {
-  Aabb all;
-  for (Index i = 0; i < num_nodes_; ++i) {
-    const Eigen::Vector3d p = positions.col(i);
-    if (p.allFinite()) all.extend(p);
-  }
-  const Eigen::Vector3d lo = all.empty() ? Eigen::Vector3d::Zero() : all.lo;
-  const double extent = all.empty() ? 0.0 : (all.hi - all.lo).maxCoeff();
+  const Eigen::Vector3d lo = box_.empty() ? Eigen::Vector3d::Zero() : box_.lo;
+  const double extent = box_.empty() ? 0.0 : (box_.hi - box_.lo).maxCoeff();
   constexpr double kTop = double((1 << 21) - 1);
   const double to_grid = extent > 0.0 ? kTop / extent : 0.0;
   // (Morton code of the centroid, tet): tets with a non-finite corner last; ties by tet
@@ -174,7 +169,7 @@ void CollisionBody::build_clusters(const Positions& positions) {
   cluster_tets_.indices.clear();
   cluster_nodes_.offsets.assign(1, 0);
   cluster_nodes_.indices.clear();
-  std::vector<Index> row;
+  std::vector<Index> row, nodes;
   for (std::size_t c = 0; c < clusters; ++c) {
     const std::size_t begin = c * kClusterTets, end = std::min(m, begin + kClusterTets);
     row.clear();
@@ -182,7 +177,7 @@ void CollisionBody::build_clusters(const Positions& positions) {
     std::sort(row.begin(), row.end());
     cluster_tets_.indices.insert(cluster_tets_.indices.end(), row.begin(), row.end());
     cluster_tets_.offsets.push_back(static_cast<Index>(cluster_tets_.indices.size()));
-    std::vector<Index> nodes;
+    nodes.clear();
     for (const Index t : row) nodes.insert(nodes.end(), tets_[t].begin(), tets_[t].end());
     std::sort(nodes.begin(), nodes.end());
     nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
@@ -200,7 +195,7 @@ void CollisionBody::set_positions(const Positions& positions) {
   positions_ = &positions;
   bounds_ready_ = false;
   tree_ready_ = false;
-  if (cluster_tets_.offsets.empty()) build_clusters(positions);
+  clusters_ready_ = false;
   if (++frame_ == 0) {  // wrapped: forget every stamp
     frame_ = 1;
     std::fill(box_frame_.begin(), box_frame_.end(), 0);
@@ -220,22 +215,30 @@ void CollisionBody::set_positions(const Positions& positions) {
   });
   box_ = Aabb{};
   for (const Aabb& b : part) box_.extend(b);
-  // The cluster boxes, from the nodes each cluster's tets use (~2.5 reads per node).
-  const auto clusters = static_cast<std::size_t>(cluster_tets_.rows());
-  tet_boxes_.resize(clusters);
-  detail::for_chunks(clusters, 256, [&](std::size_t begin, std::size_t end, std::size_t) {
-    for (std::size_t c = begin; c < end; ++c) {
-      Aabb b;
-      for (const Index i : cluster_nodes_.row(static_cast<Index>(c))) {
-        const Eigen::Vector3d p = positions.col(i);
-        if (p.allFinite()) b.extend(p);
-      }
-      tet_boxes_[c] = b;
-    }
-  });
+  if (cluster_tets_.offsets.empty()) build_clusters(positions);
 }
 
-void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) const {
+void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
+  if (positions_ == nullptr)
+    throw std::logic_error("CollisionBody::tets_near: set_positions() was not called");
+  if (!clusters_ready_) {
+    // The cluster boxes, from the nodes each cluster's tets use (~2.5 reads per node),
+    // once per frame and only for bodies in a pair whose object boxes touch.
+    const Positions& positions = *positions_;
+    const auto clusters = static_cast<std::size_t>(cluster_tets_.rows());
+    tet_boxes_.resize(clusters);
+    detail::for_chunks(clusters, 256, [&](std::size_t begin, std::size_t end, std::size_t) {
+      for (std::size_t c = begin; c < end; ++c) {
+        Aabb b;
+        for (const Index i : cluster_nodes_.row(static_cast<Index>(c))) {
+          const Eigen::Vector3d p = positions.col(i);
+          if (p.allFinite()) b.extend(p);
+        }
+        tet_boxes_[c] = b;
+      }
+    });
+    clusters_ready_ = true;
+  }
   out.clear();
   for (Index c = 0; c < cluster_tets_.rows(); ++c)
     if (tet_boxes_[c].overlaps(region)) {
@@ -324,7 +327,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   // bounds and the filter below: a small tool in a large organ costs what the part of
   // the organ near the tool costs, not the whole organ.
   const Aabb cull = a.box().intersection(b.box());
-  const auto gather_near = [&](const CollisionBody& body, std::vector<Index>& list) {
+  const auto gather_near = [&](CollisionBody& body, std::vector<Index>& list) {
     if (options_.cluster_cull) {
       body.tets_near(cull, list);
     } else {
@@ -389,7 +392,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   st.tets_b_in_box = subset_b_.size();
 
   BvhSide bvh;
-  if (kind == BroadPhaseKind::kBvh && full_tree) {
+  if (full_tree) {
     if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
     for (std::size_t k = 0; k < subset_b_.size(); ++k)
       box_slot_[subset_b_[k]] = static_cast<Index>(k);
@@ -402,7 +405,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   }
   broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
                     {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
-  if (kind == BroadPhaseKind::kBvh && full_tree)
+  if (full_tree)
     for (const Index t : subset_b_) box_slot_[t] = -1;
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();

@@ -84,8 +84,9 @@ class CollisionBody {
 
   /// The tets that may meet `region` this frame, sorted: every tet whose box overlaps it,
   /// and others of the same clusters. Cost: one box test per cluster plus the tets
-  /// returned, not a pass over every tet (set_positions() refits the clusters).
-  void tets_near(const Aabb& region, std::vector<Index>& out) const;
+  /// returned, not a pass over every tet (the first call of a frame refits the
+  /// clusters' boxes from their nodes). Not thread-safe for one body.
+  void tets_near(const Aabb& region, std::vector<Index>& out);
 
   /// Computes this frame's bounds (boxes, and spheres when `spheres` is set) of the
   /// listed tets that do not have them yet. Not thread-safe for one body.
@@ -116,6 +117,7 @@ class CollisionBody {
   Csr cluster_tets_;             ///< per cluster: its tets, sorted
   Csr cluster_nodes_;            ///< per cluster: the nodes its tets use, sorted
   std::vector<Aabb> tet_boxes_;  ///< per cluster: box of its tets, this frame
+  bool clusters_ready_ = false;  ///< tet_boxes_ refitted for this frame
   std::vector<std::uint32_t> box_frame_, sphere_frame_;  ///< per tet: frame bounds were made
   std::uint32_t frame_ = 0;   ///< set_positions() calls, never 0 after the first
   std::vector<Index> stale_;  ///< scratch for ensure_bounds()
