@@ -1,6 +1,7 @@
 // `tetcollide respond FILE_A FILE_B [--scale-a SX SY SZ] [--scale-b SX SY SZ]
 //  [--move-b DX DY DZ] --response point|segment|auto
-//  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--stiffness K]
+//  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--lazy local|whole]
+//  [--stiffness K]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
 // meshes, B optionally translated. --contacts lists the point contacts with the depth and
@@ -33,6 +34,7 @@ struct RespondArgs {
   std::string forces_csv;
   std::string contacts_csv;
   std::string evaluation = "nearest-face";
+  std::string lazy = "local";
   bool exact_check = false;
   bool json = false;
 };
@@ -79,6 +81,7 @@ int run_respond(const RespondArgs& args) {
   config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
   config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
                                                        : DepthEvaluation::kNearestFace;
+  config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
   const double diag_a = bbox_diagonal(a->positions), diag_b = bbox_diagonal(b->positions);
   Pipeline pipeline(config);
   std::vector<FrameObjectInput> states(2);
@@ -225,6 +228,10 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--evaluation", args->evaluation,
                   "Contact depth: nearest-face (default) or interpolate (the paper's 5.1)")
       ->check(CLI::IsMember({"nearest-face", "interpolate"}));
+  cmd->add_option("--lazy", args->lazy,
+                  "Lazy depth maps march around the contact (local, default) or from the whole "
+                  "boundary (whole, the paper's 4.4)")
+      ->check(CLI::IsMember({"local", "whole"}));
   cmd->add_flag("--exact-check", args->exact_check,
                 "Compare each point contact's depth with the exact distance to the boundary");
   cmd->add_flag("--json", args->json, "Print one JSON object");

@@ -17,12 +17,14 @@
 #include "core/distance/point_simplex_distance.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/geometry.hpp"
+#include "sanitizer.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+using Eigen::Vector3d;
 
 std::vector<double> solve(const TetMesh& m, const Topology& topo, DepthSolverOptions o) {
   DepthSolver s(m.tets, topo, o);
@@ -288,7 +290,11 @@ TEST_P(DepthLazy, SettledValuesEqualTheFullRunBitForBit) {
   TetMesh m = test::torus_mesh(32, 6, 2.0, 0.8);
   shuffle_nodes(m, 5);
   const Topology topo = build_topology(m.tets, m.num_nodes());
-  DepthSolver solver(m.tets, topo, {.method = p.method, .cffm = p.cffm, .queue = p.queue});
+  DepthSolver solver(m.tets, topo,
+                     {.method = p.method,
+                      .cffm = p.cffm,
+                      .queue = p.queue,
+                      .lazy_region = LazyRegion::kWholeBoundary});
   ASSERT_TRUE(solver.compute(m.positions).ok());
   const std::vector<double> full(solver.depth().begin(), solver.depth().end());
   EXPECT_EQ(solver.settled_count(), static_cast<std::size_t>(m.num_nodes()));
@@ -354,11 +360,205 @@ TEST(DepthLazy, ShallowContactSettlesFewNodes) {
         marked.push_back(t);
         break;
       }
-  DepthSolver solver(m.tets, topo);
+  // The paper's lazy run: every boundary node seeds it.
+  DepthSolver solver(m.tets, topo, {.lazy_region = LazyRegion::kWholeBoundary});
   const auto settled = solver.compute_lazy(m.positions, marked);
   ASSERT_TRUE(settled);
   EXPECT_LT(*settled, static_cast<std::size_t>(m.num_nodes()) * 3 / 4);
   EXPECT_GE(*settled, topo.boundary_nodes.size());
+}
+
+// Local lazy runs (LazyRegion::kLocal, issue 13): the tets near a small tool pressed
+// `press` metres into the top face of a wide slab, or deep into its middle.
+std::vector<Index> tets_near(const TetMesh& m, const Vector3d& centre, double r) {
+  std::vector<Index> out;
+  for (Index t = 0; t < m.num_tets(); ++t)
+    for (const Index v : m.tets[t])
+      if ((m.positions.col(v) - centre).norm() < r) {
+        out.push_back(t);
+        break;
+      }
+  return out;
+}
+
+struct LocalCase {
+  DepthMethod method;
+  CffmVariant cffm;
+  QueueKind queue;
+};
+
+class DepthLazyLocal : public ::testing::TestWithParam<LocalCase> {};
+
+// Every depth a local run gives is a true boundary distance (>= exact), the region
+// holds the ball of radius depth around every marked node (cell side >= depth), only a
+// few per cent of the nodes are settled for a shallow press, and the marked nodes'
+// depths are those of the whole-boundary run (within 2% where they differ at all).
+TEST_P(DepthLazyLocal, ShallowPressSettlesFewNodesWithTheWholeRunsDepths) {
+  const LocalCase p = GetParam();
+  const int n = test::kSanitized ? 24 : 40;
+  TetMesh m = test::structured_box(n, n, n / 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25));
+  shuffle_nodes(m, 3);
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  const auto exact = compute_depth_exact(m, topo);
+  ASSERT_TRUE(exact);
+  DepthSolver local(m.tets, topo, {.method = p.method, .cffm = p.cffm, .queue = p.queue});
+  DepthSolver whole(m.tets, topo,
+                    {.method = p.method,
+                     .cffm = p.cffm,
+                     .queue = p.queue,
+                     .lazy_region = LazyRegion::kWholeBoundary});
+  const double h = 1.0 / n;
+  struct Press {
+    Vector3d centre;
+    double r;
+    bool shallow;
+  };
+  for (const Press& press : {Press{{0.4, 0.55, 0.25}, 0.05, true},   // 2-3 cells under it
+                             Press{{0.02, 0.5, 0.25}, 0.04, true},   // at the side face
+                             Press{{0.5, 0.5, 0.125}, 0.03, false},  // in the middle
+                             Press{{0.7, 0.3, 0.2}, 0.5 * h, true}}) {
+    SCOPED_TRACE(testing::Message() << press.centre.transpose() << " r " << press.r);
+    const std::vector<Index> marked = tets_near(m, press.centre, press.r);
+    ASSERT_FALSE(marked.empty());
+    const auto nl = local.compute_lazy(m.positions, marked);
+    const auto nw = whole.compute_lazy(m.positions, marked);
+    ASSERT_TRUE(nl && nw);
+    EXPECT_EQ(*nl, local.settled_count());
+    const LazyStats& st = local.lazy_stats();
+    EXPECT_FALSE(st.whole);
+    EXPECT_GE(st.rounds, 1);
+    if (press.shallow) {
+      EXPECT_LT(*nl * 20, static_cast<std::size_t>(m.num_nodes())) << *nl;  // <= 5%
+      EXPECT_LT(*nl * 4, *nw);
+    }
+    std::size_t finite = 0, differ = 0;
+    for (Index i = 0; i < m.num_nodes(); ++i) {
+      if (!local.settled(i)) {
+        EXPECT_EQ(local.depth()[i], kInf);
+        EXPECT_EQ(local.anchor()[i], -1);
+        continue;
+      }
+      ++finite;
+      EXPECT_GE(local.depth()[i], (*exact)[i] - 1e-12) << i;
+      EXPECT_GE(local.anchor()[i], 0);
+    }
+    EXPECT_EQ(finite, *nl);
+    for (const Index t : marked)
+      for (const Index v : m.tets[t]) {
+        ASSERT_TRUE(local.settled(v));
+        EXPECT_LE(local.depth()[v], st.cell_side) << v;
+        if (local.depth()[v] != whole.depth()[v]) ++differ;
+        EXPECT_LE(local.depth()[v], 1.02 * whole.depth()[v] + 1e-12) << v;
+        EXPECT_GE(local.depth()[v], (*exact)[v] - 1e-12) << v;
+      }
+    // Nearly all marked nodes get exactly the whole run's value.
+    EXPECT_LE(differ * 20, marked.size()) << differ;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Methods, DepthLazyLocal,
+    ::testing::Values(LocalCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LocalCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kRadix},
+                      LocalCase{DepthMethod::kCffm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LocalCase{DepthMethod::kCffm, CffmVariant::kPaper, QueueKind::kBinaryHeap},
+                      LocalCase{DepthMethod::kCffm, CffmVariant::kNearStarts, QueueKind::kBucket},
+                      LocalCase{DepthMethod::kCffm, CffmVariant::kMultiStart, QueueKind::kRadix}));
+
+// A region that cannot certify its depths grows; a contact spanning the object ends in
+// the whole run, whose values are the whole-boundary run's bit for bit.
+TEST(DepthLazyLocal, GrowsUntilCertifiedOrWhole) {
+  {
+    // The middle of a 24 x 24 x 6 slab: 3 elements deep; the first cell side (twice the
+    // largest marked element, about 1.5 elements) cannot hold it, a larger one can.
+    const TetMesh m = test::structured_box(24, 24, 6, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25));
+    const Topology topo = build_topology(m.tets, m.num_nodes());
+    DepthSolver local(m.tets, topo);
+    DepthSolver whole(m.tets, topo, {.lazy_region = LazyRegion::kWholeBoundary});
+    const std::vector<Index> deep = tets_near(m, Vector3d(0.5, 0.5, 0.125), 0.01);
+    const auto nl = local.compute_lazy(m.positions, deep);
+    const auto nw = whole.compute_lazy(m.positions, deep);
+    ASSERT_TRUE(nl && nw);
+    EXPECT_GE(local.lazy_stats().rounds, 2);
+    EXPECT_FALSE(local.lazy_stats().whole);
+    EXPECT_LT(*nl * 2, *nw);
+    for (const Index t : deep)
+      for (const Index v : m.tets[t]) {
+        EXPECT_LE(local.depth()[v], local.lazy_stats().cell_side);
+        EXPECT_NEAR(local.depth()[v], whole.depth()[v], 1e-12);
+      }
+  }
+  const TetMesh m = test::structured_box(12, 12, 12, Vector3d(0, 0, 0), Vector3d(1, 1, 1));
+  const Topology topo = build_topology(m.tets, m.num_nodes());
+  DepthSolver local(m.tets, topo);
+  DepthSolver whole(m.tets, topo, {.lazy_region = LazyRegion::kWholeBoundary});
+  // Every tet marked: the whole object.
+  std::vector<Index> all(static_cast<std::size_t>(m.num_tets()));
+  std::iota(all.begin(), all.end(), Index{0});
+  ASSERT_TRUE(local.compute_lazy(m.positions, all));
+  ASSERT_TRUE(whole.compute_lazy(m.positions, all));
+  EXPECT_TRUE(local.lazy_stats().whole);
+  for (Index i = 0; i < m.num_nodes(); ++i) EXPECT_EQ(local.depth()[i], whole.depth()[i]);
+  // Then a small press again: local, and nothing of the whole run is left.
+  const std::vector<Index> small = tets_near(m, Vector3d(0.5, 0.5, 1.0), 0.05);
+  const auto nl = local.compute_lazy(m.positions, small);
+  ASSERT_TRUE(nl);
+  EXPECT_FALSE(local.lazy_stats().whole);
+  std::size_t finite = 0;
+  for (const double d : local.depth()) finite += std::isfinite(d) ? 1 : 0;
+  EXPECT_EQ(finite, *nl);
+}
+
+// A non-finite coordinate the local run reads is an error naming the node; one it does
+// not read is not looked at (the pipeline validates every state before).
+TEST(DepthLazyLocal, NonFiniteNodeInTheRegionIsAnError) {
+  const TetMesh m0 = test::structured_box(10, 10, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.4));
+  const Topology topo = build_topology(m0.tets, m0.num_nodes());
+  const std::vector<Index> marked = tets_near(m0, Vector3d(0.5, 0.5, 0.4), 0.06);
+  ASSERT_FALSE(marked.empty());
+  const Index in_region = m0.tets[marked[0]][0];
+  Index far = -1;
+  for (Index v = 0; v < m0.num_nodes(); ++v)
+    if ((m0.positions.col(v) - Vector3d(1.0, 1.0, 0.0)).norm() < 1e-9) far = v;
+  ASSERT_GE(far, 0);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    DepthSolver s(m0.tets, topo, {.method = method});
+    Positions p = m0.positions;
+    p(2, in_region) = std::numeric_limits<double>::quiet_NaN();
+    const auto bad = s.compute_lazy(p, marked);
+    ASSERT_FALSE(bad);
+    EXPECT_NE(bad.error().message.find("node " + std::to_string(in_region)), std::string::npos)
+        << bad.error().message;
+    for (const double d : s.depth()) EXPECT_FALSE(std::isnan(d));
+    p = m0.positions;
+    p(0, far) = std::numeric_limits<double>::infinity();
+    EXPECT_TRUE(s.compute_lazy(p, marked));
+  }
+}
+
+// 2D: a local run on the disc gives true boundary distances and settles few nodes.
+TEST(Depth2d, LocalLazyIsAnUpperBoundOfTheExactDepth) {
+  const TriMesh2 m = test::disc_mesh_2d(40, 1.0);
+  const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
+  const auto exact = compute_depth_exact(m, topo);
+  ASSERT_TRUE(exact);
+  for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+    DepthSolver2 s(m.triangles, topo, {.method = method});
+    std::vector<Index> marked;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t)
+      for (const Index v : m.triangles[t])
+        if ((m.positions.col(v) - Eigen::Vector2d(0.97, 0.0)).norm() < 0.06) {
+          marked.push_back(static_cast<Index>(t));
+          break;
+        }
+    const auto settled = s.compute_lazy(m.positions, marked);
+    ASSERT_TRUE(settled);
+    EXPECT_LT(*settled * 10, static_cast<std::size_t>(m.positions.cols()));
+    for (Index i = 0; i < m.positions.cols(); ++i)
+      if (s.settled(i)) {
+        EXPECT_GE(s.depth()[i], (*exact)[i] - 1e-12);
+      }
+  }
 }
 
 TEST(DepthLazy, EmptyTargetSetSettlesNothing) {
@@ -638,7 +838,8 @@ TEST(Depth2d, LazyEqualsFull) {
   const TriMesh2 m = test::disc_mesh_2d(16, 1.0);
   const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
   for (const auto method : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
-    DepthSolver2 s(m.triangles, topo, {.method = method});
+    DepthSolver2 s(m.triangles, topo,
+                   {.method = method, .lazy_region = LazyRegion::kWholeBoundary});
     ASSERT_TRUE(s.compute(m.positions).ok());
     const std::vector<double> full(s.depth().begin(), s.depth().end());
     std::mt19937 rng(8);

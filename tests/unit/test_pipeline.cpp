@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "core/io/mesh_io.hpp"
+#include "sanitizer.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -534,6 +535,59 @@ TEST(ContactDepth, FaceOnFaceWithALateralOffsetPushesAlongTheNormal) {
   EXPECT_LT(audit.force_a.z(), 0.0);  // a (below) pushed down
   EXPECT_LE(std::hypot(audit.force_a.x(), audit.force_a.y()), 0.02 * std::abs(audit.force_a.z()));
   EXPECT_LE(audit.max_ratio, 1.5);
+}
+
+// A small tool pressed into a large object (issue 13): the local lazy depth map settles a
+// few per cent of the large object's nodes, and the forces are those of the march from
+// the whole boundary (within 1% in total, node by node on the tool) and those of the same
+// press into a piece cut from the large object with the same mesh around the contact.
+TEST(Pipeline, ASmallToolInALargeObjectCostsWhatTheContactCosts) {
+  const int n = test::kSanitized ? 24 : 36;  // cells per metre
+  const double h = 1.0 / n;
+  const TetMesh large = test::structured_box(n, n, n / 4, {0, 0, 0}, {1.0, 1.0, 0.25});
+  // The piece: the 12 x 12 columns of cells around the press, the same cells as the large
+  // object's (an even cell offset keeps the tets' split pattern).
+  const int off = n / 2 - 6 - (n / 2 - 6) % 2;
+  const TetMesh piece = test::structured_box(12, 12, n / 4, {off * h, off * h, 0},
+                                             {(off + 12) * h, (off + 12) * h, 0.25});
+  const TetMesh tool0 = test::ball_mesh(4, 0.06);
+  const auto run = [&](const TetMesh& target, LazyRegion lazy, int frame, std::size_t* settled) {
+    PipelineConfig config;
+    config.lazy_region = lazy;
+    config.compute_stiffness = true;
+    Pipeline pipeline(config);
+    EXPECT_TRUE(pipeline.set_topology("organ", 0, target, {}).ok());
+    EXPECT_TRUE(pipeline.set_topology("tool", 0, tool0, {}).ok());
+    TetMesh tool = tool0;
+    // Pressed 1.5 cm into the top face, a little further along x every frame.
+    const Eigen::Vector3d at((off + 6) * h + 0.01 * frame, (off + 6) * h - 0.004 * frame,
+                             0.25 + 0.06 - 0.015);
+    tool.positions.colwise() += at;
+    const FrameOutput out = pipeline.run_frame(
+        frame, std::vector<FrameObjectInput>{state_of("organ", target), state_of("tool", tool)});
+    EXPECT_TRUE(out.errors.empty());
+    for (const auto& [name, count] : out.settled_by_object)
+      if (name == "organ") *settled = count;
+    return out;
+  };
+  for (int frame = 0; frame < 3; ++frame) {
+    SCOPED_TRACE(frame);
+    std::size_t local_settled = 0, whole_settled = 0, piece_settled = 0;
+    const FrameOutput local = run(large, LazyRegion::kLocal, frame, &local_settled);
+    const FrameOutput whole = run(large, LazyRegion::kWholeBoundary, frame, &whole_settled);
+    const FrameOutput cut = run(piece, LazyRegion::kLocal, frame, &piece_settled);
+    EXPECT_LT(local_settled * 20, static_cast<std::size_t>(large.num_nodes())) << local_settled;
+    EXPECT_LT(local_settled * 4, whole_settled);
+    const Eigen::Vector3d fl = total(local, "tool"), fw = total(whole, "tool"),
+                          fc = total(cut, "tool");
+    ASSERT_GT(fw.norm(), 0.0);
+    EXPECT_LE((fl - fw).norm(), 0.01 * fw.norm()) << fl.transpose() << " / " << fw.transpose();
+    EXPECT_LE((fc - fl).norm(), 0.01 * fl.norm()) << fc.transpose() << " / " << fl.transpose();
+    const ObjectForces* tl = forces_of(local, "tool");
+    const ObjectForces* tw = forces_of(whole, "tool");
+    ASSERT_TRUE(tl && tw);
+    EXPECT_EQ(tl->nodes, tw->nodes);
+  }
 }
 
 }  // namespace

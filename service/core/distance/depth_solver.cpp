@@ -43,6 +43,19 @@ constexpr float kNearStartSlack = 0.05f;
 constexpr std::size_t kPrefetchFar = 12;
 constexpr std::size_t kPrefetchMid = 8;
 constexpr std::size_t kPrefetchNear = 4;
+/// Local lazy runs: the first cell side, in units of the largest marked element's box
+/// extent; the growth of the side when a round cannot certify its depths; the rounds
+/// tried before the whole object is marched (docs/DEPTH_MAPS.md, "Local lazy runs").
+constexpr double kLocalStartFactor = 2.0;
+constexpr double kLocalGrowth = 1.5;
+/// A region whose deepest marked node was d is marched again with side this times d.
+constexpr double kLocalRepeatFactor = 1.05;
+constexpr int kMaxLocalRounds = 6;
+/// Most grid cells a local run's region may use (its cells grow beyond this).
+constexpr std::size_t kMaxRegionCells = std::size_t{1} << 18;
+/// How many nodes ahead the region's flood prefetches (measured on the pawn).
+constexpr std::size_t kRegionPrefetchFar = 8;
+constexpr std::size_t kRegionPrefetchNear = 3;
 
 template <int D>
 using Vecf = Eigen::Matrix<float, D, 1>;
@@ -172,7 +185,30 @@ struct BasicDepthSolver<D>::Impl {
     Vecf<D> normal;
   };
   std::vector<FeatureFrame> frames;
-  std::vector<Vecd<D>> boundary_pos;  ///< internal boundary nodes' positions, double
+  /// A node with a non-finite coordinate met by a local run's feature records, or -1.
+  Index bad_node = -1;
+  /// The positions of the run (D x n, original order): lazily filled feature records
+  /// and the final depths read them.
+  const Points* cur = nullptr;
+  Vecd<D> ref = Vecd<D>::Zero();  ///< the origin of the float records (node perm[0])
+  /// CFFM feature records filled this run: frame_mark[t] == frame_stamp (a local run
+  /// fills only the features it reads).
+  std::vector<std::uint32_t> frame_mark;
+  std::uint32_t frame_stamp = 0;
+  std::vector<Index> all_boundary;  ///< 0 .. num_boundary - 1: the seeds of a whole run
+  // Local lazy runs (LazyRegion::kLocal): the region is the nodes reached from the
+  // marked nodes by edges without leaving the cells (of side `margin`) next to a cell
+  // holding a marked node.
+  std::vector<std::uint32_t> region_mark;  ///< internal: == region_stamp inside the region
+  std::vector<std::uint32_t> tested_mark;  ///< internal: == region_stamp once looked at
+  std::uint32_t region_stamp = 0;
+  bool local_run = false;          ///< the march runs on the region only
+  std::vector<Index> region;       ///< internal, in the order the flood reached them
+  std::vector<Index> seeds;        ///< the region's boundary nodes, sorted
+  std::vector<std::uint8_t> grid;  ///< the region's cells (build_region)
+  std::vector<Index> written;      ///< original nodes whose depth or anchor the last run wrote
+  double last_deepest = 0.0;       ///< deepest marked node of the last certified local run
+  LazyStats lazy_stats;
   std::vector<Index> settled_list;
   std::vector<detail::QueueEntry> stage;
   std::vector<double> depth;        ///< original order
@@ -305,7 +341,12 @@ struct BasicDepthSolver<D>::Impl {
       point.assign(nn, Vecf<D>::Zero());
     depth.assign(nn, kInf);
     anchor.assign(nn, -1);
-    boundary_pos.assign(static_cast<std::size_t>(num_boundary), Vecd<D>::Zero());
+    all_boundary.resize(static_cast<std::size_t>(num_boundary));
+    for (Index b = 0; b < num_boundary; ++b) all_boundary[b] = b;
+    frame_mark.assign(surface.simplices.size(), 0);
+    frames.resize(surface.simplices.size());
+    region_mark.assign(nn, 0);
+    tested_mark.assign(nn, 0);
     mark.assign(nn, 0);
     settled_list.reserve(nn);
     queue = make_queue(options);
@@ -324,20 +365,44 @@ struct BasicDepthSolver<D>::Impl {
                  "node " + std::to_string(node) + " has a non-finite coordinate"};
   }
 
-  // Copies the used nodes' positions into the records, relative to the first one.
-  Status gather(const Points& positions) {
-    if (Status st = check_size(positions); !st) return st;
-    if (num_used == 0) return {};
-    const Vecd<D> ref = positions.col(perm[0]);
-    if (!ref.allFinite()) return non_finite(perm[0]);
-    for (Index i = 0; i < num_used; ++i) {
-      const Vecd<D> x = positions.col(perm[i]);
-      if (!x.allFinite()) return non_finite(perm[i]);
-      Rec<D>& r = rec[i];
-      for (int k = 0; k < D; ++k) r.x[k] = static_cast<float>(x[k] - ref[k]);
-      r.key = kInfF;
-      if (i < num_boundary) boundary_pos[i] = x;
+  // Starts a run on `p`: checks its size, takes the origin of the float records (node
+  // perm[0]) and forgets the feature records of the previous run.
+  Status begin_run(const Points& p) {
+    if (Status st = check_size(p); !st) return st;
+    cur = &p;
+    if (++frame_stamp == 0) {  // wrapped: forget the old marks
+      std::fill(frame_mark.begin(), frame_mark.end(), 0u);
+      frame_stamp = 1;
     }
+    if (num_used == 0) return {};
+    ref = p.col(perm[0]);
+    if (!ref.allFinite()) return non_finite(perm[0]);
+    return {};
+  }
+
+  // Position of internal node i relative to the origin, in float (what the march reads).
+  Vecf<D> float_pos(Index i) const { return (cur->col(perm[i]) - ref).template cast<float>(); }
+
+  // Node i's record: position x (metres) relative to the origin, key +infinity.
+  void store_rec(Index i, const Vecd<D>& x) {
+    Rec<D>& r = rec[i];
+    for (int k = 0; k < D; ++k) r.x[k] = static_cast<float>(x[k] - ref[k]);
+    r.key = kInfF;
+  }
+
+  // Loads node i's record; false when a coordinate is not finite.
+  bool load_rec(Index i) {
+    const Vecd<D> x = cur->col(perm[i]);
+    if (!x.allFinite()) return false;
+    store_rec(i, x);
+    return true;
+  }
+
+  // Loads every used node's record (a whole run).
+  Status gather(const Points& p) {
+    if (Status st = begin_run(p); !st) return st;
+    for (Index i = 0; i < num_used; ++i)
+      if (!load_rec(i)) return non_finite(perm[i]);
     return {};
   }
 
@@ -348,30 +413,42 @@ struct BasicDepthSolver<D>::Impl {
     return {};
   }
 
-  void load_corners(Index s, Vecf<D>* c) const {
-    for (int k = 0; k < D; ++k) c[k] = frames[s].c[k];
+  // CFFM: the compact record of feature t, filled on its first use in a run (a local
+  // run reads few features; a whole run fills them all first, in gather_frames). The
+  // values are those of the nodes' float records, whether those were loaded or not.
+  const FeatureFrame& frame(Index t) {
+    FeatureFrame& f = frames[t];
+    if (frame_mark[t] == frame_stamp) return f;
+    frame_mark[t] = frame_stamp;
+    for (int k = 0; k < D; ++k) f.c[k] = float_pos(simplices_int[t][k]);
+    for (int j = 0; j < D; ++j)
+      f.far[j] = across_far[t][j] >= 0 ? float_pos(across_far[t][j]) : f.c[j];
+    if constexpr (D == 3) {
+      f.normal = (f.c[1] - f.c[0]).cross(f.c[2] - f.c[0]);
+    } else {
+      f.normal = Vecf<D>(f.c[0].y() - f.c[1].y(), f.c[1].x() - f.c[0].x());
+    }
+    // A local run reads features beyond its region, whose nodes were not checked.
+    bool finite = f.normal.allFinite();
+    for (int j = 0; j < D; ++j) finite = finite && f.far[j].allFinite();
+    if (!finite && bad_node < 0) bad_node = perm[simplices_int[t][0]];
+    return f;
   }
 
-  // CFFM: one compact record per feature, from the gathered positions.
+  void load_corners(Index s, Vecf<D>* c) {
+    const FeatureFrame& f = frame(s);
+    for (int k = 0; k < D; ++k) c[k] = f.c[k];
+  }
+
+  // CFFM, a whole run: every feature's record.
   void gather_frames() {
-    frames.resize(simplices_int.size());
-    for (std::size_t t = 0; t < simplices_int.size(); ++t) {
-      FeatureFrame& f = frames[t];
-      for (int k = 0; k < D; ++k) f.c[k] = pos_of<D>(rec[simplices_int[t][k]]);
-      for (int j = 0; j < D; ++j)
-        f.far[j] = across_far[t][j] >= 0 ? pos_of<D>(rec[across_far[t][j]]) : f.c[j];
-      if constexpr (D == 3) {
-        f.normal = (f.c[1] - f.c[0]).cross(f.c[2] - f.c[0]);
-      } else {
-        f.normal = Vecf<D>(f.c[0].y() - f.c[1].y(), f.c[1].x() - f.c[0].x());
-      }
-    }
+    for (std::size_t t = 0; t < simplices_int.size(); ++t) frame(static_cast<Index>(t));
   }
 
   // Offers what u holds to its neighbours (the paper's update rule: a node takes it
   // when that makes it nearer than what the node holds). Final nodes have key <= -0,
   // so `d < key` is false for them.
-  template <Mode kMode, class Push>
+  template <Mode kMode, bool kLocal, class Push>
   void relax(Index u, Push&& push) {
     const Index f = feature[u];
     const Index* it = adjacency.indices.data() + adjacency.offsets[u];
@@ -380,6 +457,8 @@ struct BasicDepthSolver<D>::Impl {
       // Point propagation: CPFM's boundary node, or CFFM's closest point on the feature.
       const Vecf<D> xf = kMode == Mode::kPoint ? pos_of<D>(rec[f]) : point[u];
       for (; it != end; ++it) {
+        if constexpr (kLocal)
+          if (!inside(*it)) continue;
         Rec<D>& r = rec[*it];
         const float d = (pos_of<D>(r) - xf).squaredNorm();
         if (d < r.key) {
@@ -393,6 +472,8 @@ struct BasicDepthSolver<D>::Impl {
       Vecf<D> c[D];
       load_corners(f, c);
       for (; it != end; ++it) {
+        if constexpr (kLocal)
+          if (!inside(*it)) continue;
         Rec<D>& r = rec[*it];
         if (is_final(r.key)) continue;
         const float d = simplex_distance<D, float>(pos_of<D>(r), c).sq_dist;
@@ -406,11 +487,13 @@ struct BasicDepthSolver<D>::Impl {
   }
 
   // The paper's CFFM seeding: boundary node b offers every boundary feature around it.
-  template <class Push>
+  template <bool kLocal, class Push>
   void relax_ring(Index b, Push&& push) {
     const auto ring = vertex_simplices_int.row(b);
     for (Index k = adjacency.offsets[b]; k < adjacency.offsets[b + 1]; ++k) {
       const Index v = adjacency.indices[k];
+      if constexpr (kLocal)
+        if (!inside(v)) continue;
       Rec<D>& r = rec[v];
       if (is_final(r.key)) continue;
       const Vecf<D> x = pos_of<D>(r);
@@ -472,7 +555,7 @@ struct BasicDepthSolver<D>::Impl {
         // variants"). With the closest point inside, a neighbour whose far node is not on
         // x's side of the plane (a convex or flat side) lies beyond the plane, no nearer
         // than the plane distance: it is skipped, which changes no result.
-        const FeatureFrame& fr = frames[s];
+        const FeatureFrame& fr = frame(s);
         const float side = fr.normal.dot(x - fr.c[0]);
         for (int j = 0; j < D; ++j) {
           const Index t = across[s][j];
@@ -527,7 +610,7 @@ struct BasicDepthSolver<D>::Impl {
     tried[count++] = best_f;
     for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
       const Index v = adjacency.indices[k];
-      if (!is_final(rec[v].key)) continue;
+      if (!settled_now(v)) continue;
       const Index f = feature[v];
       if (std::find(tried, tried + count, f) != tried + count) continue;
       tried[count++] = f;
@@ -561,7 +644,7 @@ struct BasicDepthSolver<D>::Impl {
     tried[count++] = best_f;
     for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
       const Index v = adjacency.indices[k];
-      if (!is_final(rec[v].key)) continue;
+      if (!settled_now(v)) continue;
       const Index f = feature[v];
       if (std::find(tried, tried + count, f) != tried + count) continue;
       tried[count++] = f;
@@ -581,6 +664,12 @@ struct BasicDepthSolver<D>::Impl {
     point[u] = best_point;
   }
 
+  // True when node v is final in this run (a local run's records outside its region are
+  // another run's).
+  bool settled_now(Index v) const {
+    return is_final(rec[v].key) && (!local_run || region_mark[v] == region_stamp);
+  }
+
   // The features across side j of feature s.
   std::span<const Index> across_side(Index s, int j) const {
     if (across[s][j] >= 0) return {&across[s][j], 1};
@@ -591,28 +680,30 @@ struct BasicDepthSolver<D>::Impl {
     }
   }
 
-  // The march. Boundary nodes are final at 0; then nodes are finalised in queue order.
-  // A node is final when popped and never changes afterwards, so a lazy run (which
-  // stops after some pop) is a prefix of the full run.
-  template <Mode kMode, class Queue>
-  void march(Queue& q, bool lazy, std::size_t remaining) {
+  // The march. The seeds (boundary nodes) are final at 0; then nodes are finalised in
+  // queue order. A node is final when popped and never changes afterwards, so a lazy
+  // run (which stops after some pop) is a prefix of the full run with the same seeds.
+  // kLocal: only the region's nodes are offered anything. Returns how many of the
+  // `remaining` marked nodes were not reached (lazy runs; 0 otherwise).
+  template <Mode kMode, bool kLocal, class Queue>
+  std::size_t march(Queue& q, std::span<const Index> seed_nodes, bool lazy, std::size_t remaining) {
     q.clear();
     stage.clear();
     settled_list.clear();
-    for (Index b = 0; b < num_boundary; ++b) {
+    for (const Index b : seed_nodes) {
       rec[b].key = -0.0f;
       feature[b] = kMode == Mode::kPoint ? b : seed_simplex[b];
       if constexpr (carries_point(kMode)) point[b] = pos_of<D>(rec[b]);
       settled_list.push_back(b);
       if (lazy && mark[b] == stamp) --remaining;
     }
-    if (lazy && remaining == 0) return;
+    if (lazy && remaining == 0) return 0;
     const auto to_stage = [this](float d, Index v) { stage.push_back({d, v}); };
-    for (Index b = 0; b < num_boundary; ++b) {
+    for (const Index b : seed_nodes) {
       if constexpr (kMode == Mode::kFeaturePaper || kMode == Mode::kFeaturePaperDescent) {
-        relax_ring(b, to_stage);
+        relax_ring<kLocal>(b, to_stage);
       } else {
-        relax<kMode>(b, to_stage);
+        relax<kMode, kLocal>(b, to_stage);
       }
     }
     q.start(stage);
@@ -644,12 +735,12 @@ struct BasicDepthSolver<D>::Impl {
       rec[u].key = -rec[u].key;
       settled_list.push_back(u);
       if (lazy && mark[u] == stamp && --remaining == 0) break;
-      relax<kMode>(u, to_queue);
+      relax<kMode, kLocal>(u, to_queue);
     }
+    return lazy ? remaining : 0;
   }
 
-  // Depths of the settled nodes, in double from the original positions and the
-  // double copy of the boundary nodes' positions.
+  // Depths of the settled nodes, in double from the original positions.
   void finish(const Points& positions) {
     const bool cffm = options.method == DepthMethod::kCffm;
     const std::size_t count = settled_list.size();
@@ -660,6 +751,7 @@ struct BasicDepthSolver<D>::Impl {
       if (j + 8 < count) __builtin_prefetch(positions.data() + std::size_t{D} * perm[list[j + 8]]);
       const Index i = list[j];
       const Index o = perm[i];
+      written.push_back(o);
       if (i < num_boundary) {
         depth[o] = 0.0;
         anchor[o] = o;
@@ -668,51 +760,221 @@ struct BasicDepthSolver<D>::Impl {
       const Vecd<D> x = positions.col(o);
       if (cffm) {
         Vecd<D> c[D];
-        for (int k = 0; k < D; ++k) c[k] = boundary_pos[simplices_int[feature[i]][k]];
+        for (int k = 0; k < D; ++k) c[k] = positions.col(perm[simplices_int[feature[i]][k]]);
         depth[o] = std::sqrt(simplex_distance<D, double>(x, c).sq_dist);
         int near = 0;  // the feature's corner nearest the node
         for (int k = 1; k < D; ++k)
           if ((x - c[k]).squaredNorm() < (x - c[near]).squaredNorm()) near = k;
         anchor[o] = perm[simplices_int[feature[i]][near]];
       } else {
-        depth[o] = (x - boundary_pos[feature[i]]).norm();
+        depth[o] = (x - positions.col(perm[feature[i]])).norm();
         anchor[o] = perm[feature[i]];
       }
     }
     settled = count;
   }
 
-  void run_march(const Points& positions, bool lazy, std::size_t remaining) {
+  template <Mode kMode, class Queue>
+  std::size_t march_in(Queue& q, std::span<const Index> seed_nodes, bool lazy,
+                       std::size_t remaining) {
+    return local_run ? march<kMode, true>(q, seed_nodes, lazy, remaining)
+                     : march<kMode, false>(q, seed_nodes, lazy, remaining);
+  }
+
+  // The march of the configured method from `seed_nodes`, then the final depths.
+  // Returns how many marked nodes were not reached (lazy runs).
+  std::size_t run_march(const Points& positions, std::span<const Index> seed_nodes, bool lazy,
+                        std::size_t remaining) {
+    std::size_t left = 0;
     std::visit(
         [&](auto& q) {
           if (options.method == DepthMethod::kCpfm) {
-            march<Mode::kPoint>(q, lazy, remaining);
+            left = march_in<Mode::kPoint>(q, seed_nodes, lazy, remaining);
             return;
           }
           switch (options.cffm) {
             case CffmVariant::kPaper:
-              march<Mode::kFeaturePaper>(q, lazy, remaining);
+              left = march_in<Mode::kFeaturePaper>(q, seed_nodes, lazy, remaining);
               return;
             case CffmVariant::kPaperDescent:
-              march<Mode::kFeaturePaperDescent>(q, lazy, remaining);
+              left = march_in<Mode::kFeaturePaperDescent>(q, seed_nodes, lazy, remaining);
               return;
             case CffmVariant::kMultiStart:
-              march<Mode::kFeatureMultiStart>(q, lazy, remaining);
+              left = march_in<Mode::kFeatureMultiStart>(q, seed_nodes, lazy, remaining);
               return;
             case CffmVariant::kNearStarts:
-              march<Mode::kFeatureNearStarts>(q, lazy, remaining);
+              left = march_in<Mode::kFeatureNearStarts>(q, seed_nodes, lazy, remaining);
               return;
             case CffmVariant::kDescent:
               break;
           }
-          march<Mode::kFeatureDescent>(q, lazy, remaining);
+          left = march_in<Mode::kFeatureDescent>(q, seed_nodes, lazy, remaining);
         },
         queue);
     finish(positions);
+    return left;
+  }
+
+  // The region of a local run: the nodes the marked ones reach by edges without leaving
+  // the grid cells within `side` (in every coordinate) of a cell holding a marked node;
+  // so it holds the ball of radius `side` around every marked node, and reaches at most
+  // side + one cell beyond them. Cells are side / 2 (coarser when the marked nodes span
+  // more than kMaxRegionCells such cells). The seeds are the region's boundary nodes.
+  // Loads the region's records; sets bad_node for a non-finite coordinate.
+  void build_region(double side) {
+    if (++region_stamp == 0) {  // wrapped: forget the old marks
+      std::fill(region_mark.begin(), region_mark.end(), 0u);
+      std::fill(tested_mark.begin(), tested_mark.end(), 0u);
+      region_stamp = 1;
+    }
+    region.clear();
+    seeds.clear();
+    Vecd<D> lo = Vecd<D>::Constant(kInf), hi = Vecd<D>::Constant(-kInf);
+    for (const Index u : marked) {
+      const Vecd<D> x = cur->col(perm[u]);
+      if (!x.allFinite()) {
+        bad_node = perm[u];
+        return;
+      }
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    // The grid: cell c, `reach` cells of dilation (reach * c >= side), origin lo - reach c.
+    double cell = 0.5 * side;
+    const Vecd<D> extent = hi - lo;
+    const auto cells_for = [&](double c) {
+      double total = 1.0;
+      for (int k = 0; k < D; ++k)
+        total *= std::floor(extent[k] / c) + 1.0 + 2.0 * std::ceil(side / c);
+      return total;
+    };
+    while (cells_for(cell) > static_cast<double>(kMaxRegionCells)) cell *= 2.0;
+    const int reach = static_cast<int>(std::ceil(side / cell));
+    const double inv_cell = 1.0 / cell;
+    Eigen::Matrix<std::int64_t, D, 1> dims;
+    for (int k = 0; k < D; ++k)
+      dims[k] = static_cast<std::int64_t>(std::floor(extent[k] * inv_cell)) + 1 + 2 * reach;
+    const Vecd<D> origin = lo - Vecd<D>::Constant(reach * cell);
+    grid.assign(static_cast<std::size_t>(dims.prod()), 0);
+    // Cell index of x, or -1 outside the grid.
+    const auto cell_of = [&](const Vecd<D>& x) -> std::int64_t {
+      std::int64_t index = 0;
+      for (int k = D - 1; k >= 0; --k) {
+        const double c = std::floor((x[k] - origin[k]) * inv_cell);
+        if (!(c >= 0.0 && c < static_cast<double>(dims[k]))) return -1;
+        index = index * dims[k] + static_cast<std::int64_t>(c);
+      }
+      return index;
+    };
+    // Mark the cells of the marked nodes, then dilate by `reach` along each axis in turn.
+    for (const Index u : marked) grid[static_cast<std::size_t>(cell_of(cur->col(perm[u])))] = 1;
+    std::int64_t stride = 1;
+    for (int k = 0; k < D; ++k) {
+      for (int pass = 0; pass < reach; ++pass) {
+        // One cell of growth along axis k: a cell is set when it or a neighbour along k is.
+        for (std::int64_t i = 0; i < static_cast<std::int64_t>(grid.size()); ++i) {
+          const std::int64_t c = (i / stride) % dims[k];
+          if (grid[i] & 1) continue;
+          const bool up = c + 1 < dims[k] && (grid[i + stride] & 1);
+          const bool down = c > 0 && (grid[i - stride] & 1);
+          if (up || down) grid[i] = 2;  // set after this pass, not during it
+        }
+        for (auto& g : grid) g = g != 0 ? 1 : 0;
+      }
+      stride *= dims[k];
+    }
+    for (const Index u : marked) {
+      if (tested_mark[u] == region_stamp) continue;
+      tested_mark[u] = region_mark[u] = region_stamp;
+      region.push_back(u);
+      store_rec(u, cur->col(perm[u]));
+    }
+    for (std::size_t head = 0; head < region.size(); ++head) {
+      // The flood is bound by memory latency: fetch the marks and indices of the
+      // neighbours of a node a few places ahead, and their positions nearer.
+      if (head + kRegionPrefetchFar < region.size())
+        for (const Index w : adjacency.row(region[head + kRegionPrefetchFar])) {
+          __builtin_prefetch(&tested_mark[w]);
+          __builtin_prefetch(&perm[w]);
+        }
+      if (head + kRegionPrefetchNear < region.size())
+        for (const Index w : adjacency.row(region[head + kRegionPrefetchNear]))
+          __builtin_prefetch(cur->data() + std::size_t{D} * perm[w]);
+      for (const Index v : adjacency.row(region[head])) {
+        if (tested_mark[v] == region_stamp) continue;
+        tested_mark[v] = region_stamp;
+        const Vecd<D> x = cur->col(perm[v]);
+        if (!x.allFinite()) {
+          bad_node = perm[v];
+          return;
+        }
+        const std::int64_t c = cell_of(x);
+        if (c < 0 || !grid[static_cast<std::size_t>(c)]) continue;
+        region_mark[v] = region_stamp;
+        region.push_back(v);
+        store_rec(v, x);
+      }
+    }
+    for (const Index v : region)
+      if (v < num_boundary) seeds.push_back(v);
+    std::sort(seeds.begin(), seeds.end());
+  }
+
+  bool inside(Index v) const { return region_mark[v] == region_stamp; }
+
+  // Lazy run on regions around the marked nodes (LazyRegion::kLocal): the cell side
+  // starts at twice the largest marked element and grows until every marked node is
+  // reached and its depth is at most the side (so every boundary node nearer to it than
+  // its depth lies in the region's cells), or the region is the whole object; then the
+  // run is a whole one. Fails on a non-finite coordinate of a node it reads.
+  Status run_local(const Points& positions, std::span<const Index> marked_elements) {
+    double side = 0.0;
+    for (const Index e : marked_elements) {
+      Vecd<D> lo = positions.col(elements[e][0]), hi = lo;
+      for (const Index v : elements[e]) {
+        lo = lo.cwiseMin(positions.col(v));
+        hi = hi.cwiseMax(positions.col(v));
+      }
+      side = std::max(side, (hi - lo).maxCoeff());
+    }
+    // The last certified run's deepest marked node is the best first guess of this one's
+    // (contact moves little from frame to frame); the certificate below decides anyway.
+    side = std::max(side * kLocalStartFactor, kLocalRepeatFactor * last_deepest);
+    lazy_stats = {};
+    local_run = side > 0.0 && std::isfinite(side);
+    for (int round = 0; local_run && round < kMaxLocalRounds; ++round) {
+      build_region(side);
+      if (bad_node >= 0) return non_finite(bad_node);
+      if (region.size() >= static_cast<std::size_t>(num_used)) break;
+      ++lazy_stats.rounds;
+      lazy_stats.region_nodes = region.size();
+      lazy_stats.cell_side = side;
+      const std::size_t left = run_march(positions, seeds, true, marked.size());
+      if (bad_node >= 0) return non_finite(bad_node);
+      double deepest = 0.0;
+      for (const Index u : marked) deepest = std::max(deepest, depth[perm[u]]);
+      if (left == 0 && deepest <= side) {
+        last_deepest = deepest;
+        return {};
+      }
+      clear_written();
+      side = std::max(kLocalGrowth * side, left == 0 ? kLocalRepeatFactor * deepest : 0.0);
+    }
+    // The whole object: every boundary node seeds, as in the paper.
+    last_deepest = 0.0;
+    local_run = false;
+    ++lazy_stats.rounds;
+    lazy_stats.region_nodes = static_cast<std::size_t>(num_used);
+    lazy_stats.whole = true;
+    if (Status st = gather(positions); !st) return st;
+    if (options.method == DepthMethod::kCffm) gather_frames();
+    run_march(positions, all_boundary, true, marked.size());
+    return {};
   }
 
   void run_exact(const Points& positions, std::span<const Index> nodes) {
     bvh.build(surface.simplices, positions);
+    written.assign(nodes.begin(), nodes.end());
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, nodes.size(), 512),
         [&](const tbb::blocked_range<std::size_t>& r) {
@@ -738,10 +1000,22 @@ struct BasicDepthSolver<D>::Impl {
     settled = nodes.size();
   }
 
-  void reset() {
-    std::fill(depth.begin(), depth.end(), kInf);
-    std::fill(anchor.begin(), anchor.end(), Index{-1});
+  // Forgets the depths and anchors the last run wrote (only those: a local run costs
+  // what its region costs, not what the object costs).
+  void clear_written() {
+    for (const Index o : written) {
+      depth[o] = kInf;
+      anchor[o] = -1;
+    }
+    written.clear();
     settled = 0;
+  }
+
+  void reset() {
+    clear_written();
+    bad_node = -1;
+    local_run = false;
+    lazy_stats = {};
   }
 };
 
@@ -771,7 +1045,7 @@ Status BasicDepthSolver<D>::compute(const Points& positions) {
   }
   if (Status st = s.gather(positions); !st) return st;
   if (s.options.method == DepthMethod::kCffm) s.gather_frames();
-  s.run_march(positions, false, 0);
+  s.run_march(positions, s.all_boundary, false, 0);
   return {};
 }
 
@@ -787,7 +1061,12 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
                    "marked element #" + std::to_string(i) + " = " + std::to_string(marked[i]) +
                        " is out of range [0, " + std::to_string(m) + ")"};
   const bool exact = s.options.method == DepthMethod::kExact;
-  if (Status st = exact ? s.check_finite(positions) : s.gather(positions); !st) return st.error();
+  const bool local = !exact && s.options.lazy_region == LazyRegion::kLocal;
+  if (Status st = exact   ? s.check_finite(positions)
+                  : local ? s.begin_run(positions)
+                          : s.gather(positions);
+      !st)
+    return st.error();
   if (++s.stamp == 0) {  // wrapped: forget the old marks
     std::fill(s.mark.begin(), s.mark.end(), 0u);
     s.stamp = 1;
@@ -805,11 +1084,21 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
   if (exact) {
     std::sort(s.marked.begin(), s.marked.end());
     s.run_exact(positions, s.marked);
+  } else if (local) {
+    if (Status st = s.run_local(positions, marked); !st) {
+      s.reset();
+      return st.error();
+    }
   } else {
     if (s.options.method == DepthMethod::kCffm) s.gather_frames();
-    s.run_march(positions, true, s.marked.size());
+    s.run_march(positions, s.all_boundary, true, s.marked.size());
   }
   return s.settled;
+}
+
+template <int D>
+const LazyStats& BasicDepthSolver<D>::lazy_stats() const {
+  return impl_->lazy_stats;
 }
 
 template <int D>

@@ -61,6 +61,28 @@ enum class QueueKind : std::uint8_t {
   kBinaryHeap,  ///< std::push_heap / pop_heap: exact Dijkstra order, the textbook choice
 };
 
+/// Where a lazy run (compute_lazy) marches.
+enum class LazyRegion : std::uint8_t {
+  /// Default: a region around the marked elements' nodes, seeded by the boundary nodes
+  /// in it (docs/DEPTH_MAPS.md, "Local lazy runs"). Its cost follows the contact, not
+  /// the object. Every depth is still the distance to a boundary node (CPFM) or point
+  /// on a boundary feature (CFFM), so never below the exact depth, and the region holds
+  /// every boundary node nearer to a marked node than the depth it got; the values may
+  /// differ from a whole run's where the march's paths would have left the region.
+  kLocal,
+  /// The paper's 4.4: the whole boundary seeds the march, which stops when the marked
+  /// nodes are settled; the settled values are bit-identical to compute()'s.
+  kWholeBoundary,
+};
+
+/// What the last compute_lazy() did (LazyRegion::kLocal).
+struct LazyStats {
+  int rounds = 0;                ///< regions marched (each larger than the one before)
+  std::size_t region_nodes = 0;  ///< nodes in the last region (all used nodes if whole)
+  double cell_side = 0.0;        ///< the last region's cell side, metres
+  bool whole = false;            ///< the last round marched the whole object
+};
+
 struct DepthSolverOptions {
   DepthMethod method = DepthMethod::kCpfm;  ///< kCpfm, kCffm or kExact
   CffmVariant cffm = CffmVariant::kDescent;
@@ -68,6 +90,7 @@ struct DepthSolverOptions {
   /// kBucket only: bucket width as a fraction of the mean distance of the nodes next
   /// to the boundary (about one edge length).
   float bucket_width = 0.25f;
+  LazyRegion lazy_region = LazyRegion::kLocal;  ///< compute_lazy() only
 };
 
 /// Topology type of a D-dimensional mesh: Topology (tets) or Topology2 (triangles).
@@ -104,15 +127,19 @@ class BasicDepthSolver {
   Status compute(const Points& positions);
 
   /// Lazy depth map (paper 4.4): marches only until every node of every marked element
-  /// is settled. The settled values are bit-identical to compute()'s for the same
-  /// positions; other nodes read +infinity. For kExact, only the marked elements' nodes
-  /// are computed.
+  /// is settled; other nodes read +infinity. LazyRegion::kLocal (default) marches in a
+  /// region around the marked nodes and reads only the positions of that region (and of
+  /// the boundary features a CFFM walk visits); kWholeBoundary seeds from the whole
+  /// boundary and its settled values are bit-identical to compute()'s. For kExact, only
+  /// the marked elements' nodes are computed.
   ///
   /// @param[in] positions     D x n node positions, metres.
   /// @param[in] marked        element indices (0-based, file order; any order, repeats
   ///                          allowed), e.g. the tets detection found overlapping.
-  /// @return the number of settled nodes, or kInvalidArgument (bad size, non-finite
-  ///         coordinate, element index out of range; the message names it).
+  /// @return the number of settled nodes, or kInvalidArgument (bad size, element index
+  ///         out of range, non-finite coordinate of a node the run reads; the message
+  ///         names it). A local run checks only the coordinates it reads: validate the
+  ///         positions first where every node must be finite (the pipeline does).
   Expected<std::size_t> compute_lazy(const Points& positions, std::span<const Index> marked);
 
   /// n depths (metres) from the last compute: >= 0 for settled nodes, +infinity else.
@@ -131,6 +158,8 @@ class BasicDepthSolver {
   /// n.
   [[nodiscard]] Index num_nodes() const;
   [[nodiscard]] const DepthSolverOptions& options() const;
+  /// What the last compute_lazy() did: rounds, region size.
+  [[nodiscard]] const LazyStats& lazy_stats() const;
 
  private:
   struct Impl;

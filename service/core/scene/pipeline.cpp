@@ -94,6 +94,7 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
   // built side by side.
   DepthSolverOptions depth_options;
   depth_options.method = params.depth;
+  depth_options.lazy_region = impl_->config.lazy_region;
   tbb::parallel_invoke(
       [&] { slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology); },
       [&] {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
+#include "core/distance/depth_solver.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/response/penalty.hpp"
 #include "core/scene/scene.hpp"
@@ -34,6 +35,9 @@ struct PipelineConfig {
   bool record_contacts = false;
   /// Where contact depths and directions come from (ResponseOptions::evaluation).
   DepthEvaluation evaluation = DepthEvaluation::kNearestFace;
+  /// Where the lazy depth maps march (DepthSolverOptions::lazy_region): a region around
+  /// the contact (default), or from the whole boundary as in the paper's 4.4.
+  LazyRegion lazy_region = LazyRegion::kLocal;
 };
 
 /// One object's state in a frame.
