@@ -3,8 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <tbb/global_control.h>
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
@@ -124,6 +128,33 @@ INSTANTIATE_TEST_SUITE_P(HeightsScalesOffsets, Flattening,
                                            FlatCase{0.0, 1e-6, 0.0}, FlatCase{1e-3, 1e-6, 0.0},
                                            FlatCase{1.0, 1e-6, 0.0}, FlatCase{1e-3, 1.0, 1e6},
                                            FlatCase{1.0, 1.0, 1e6}, FlatCase{-0.5, 1e-6, 1e6}));
+
+// The shape check runs in parallel chunks: on a mesh of many chunks with defects spread
+// over them, the counts, the first listed indices (the smallest, in order) and the
+// smallest quality are those of a serial scan, with 1 and 2 threads.
+TEST(Validate, ParallelChunksReportLikeASerialScan) {
+  TetMesh m = test::structured_box(24, 24, 12, {0, 0, 0}, {1, 1, 0.5});
+  ASSERT_GT(m.tets.size(), 30000u);
+  std::mt19937 rng(17);
+  std::vector<Index> inverted;
+  for (int k = 0; k < 40; ++k) {
+    const auto t = static_cast<Index>(rng() % m.tets.size());
+    if (std::find(inverted.begin(), inverted.end(), t) != inverted.end()) continue;
+    std::swap(m.tets[t][0], m.tets[t][1]);  // same nodes, opposite orientation
+    inverted.push_back(t);
+  }
+  std::sort(inverted.begin(), inverted.end());
+  double min_q = 1.0;
+  for (const Tet& t : m.tets) min_q = std::min(min_q, tet_quality(m.positions, t));
+  for (const int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const ValidationReport r = validate_positions(m.positions, m.tets);
+    EXPECT_EQ(r.inverted.count, inverted.size());
+    EXPECT_EQ(r.inverted.first, std::vector<Index>(inverted.begin(), inverted.begin() + 8));
+    EXPECT_EQ(r.degenerate.count, 0u);
+    EXPECT_EQ(r.min_quality, min_q);
+  }
+}
 
 TEST(Validate, AllNodesCoincidentIsDegenerate) {
   TetMesh m = test::single_tet();
