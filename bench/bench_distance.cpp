@@ -91,15 +91,21 @@ void exact(benchmark::State& state, const Case* c, int threads) {
 
 // Shallow contact (docs/DEPTH_MAPS.md, "Lazy update"): the tets with a node less than
 // `fraction` of the object's height above its lowest point, as if it sat that deep in
-// a floor.
-void lazy(benchmark::State& state, const Case* c, tc::DepthSolverOptions options, double fraction) {
+// a floor. With `press`, only those within `fraction` of the height of the lowest
+// node: a small tool pressed into the bottom (issue 13).
+void lazy(benchmark::State& state, const Case* c, tc::DepthSolverOptions options, double fraction,
+          bool press = false) {
   const double lo = c->mesh.positions.row(2).minCoeff();
   const double hi = c->mesh.positions.row(2).maxCoeff();
   const double plane = lo + fraction * (hi - lo);
+  tc::Index lowest = 0;
+  c->mesh.positions.row(2).minCoeff(&lowest);
+  const Eigen::Vector3d tip = c->mesh.positions.col(lowest);
   std::vector<tc::Index> marked;
   for (tc::Index t = 0; t < c->mesh.num_tets(); ++t)
     for (const tc::Index v : c->mesh.tets[t])
-      if (c->mesh.positions(2, v) < plane) {
+      if (c->mesh.positions(2, v) < plane &&
+          (!press || (c->mesh.positions.col(v) - tip).norm() < fraction * (hi - lo))) {
         marked.push_back(t);
         break;
       }
@@ -113,6 +119,9 @@ void lazy(benchmark::State& state, const Case* c, tc::DepthSolverOptions options
   state.counters["marked_tets"] = static_cast<double>(marked.size());
   state.counters["settled_frac"] =
       static_cast<double>(settled) / static_cast<double>(c->mesh.num_nodes());
+  state.counters["rounds"] = solver.lazy_stats().rounds;
+  state.counters["region_frac"] = static_cast<double>(solver.lazy_stats().region_nodes) /
+                                  static_cast<double>(c->mesh.num_nodes());
 }
 
 void grid(benchmark::State& state, const Case* c, int n) {
@@ -149,11 +158,19 @@ void register_case(const Case* c, bool big) {
   reg("exact/" + n + "/threads:all", [c](benchmark::State& s) {
     exact(s, c, static_cast<int>(tbb::this_task_arena::max_concurrency()));
   })->Iterations(big ? 3 : 20);
-  for (const double f : {0.1, 0.25})
-    for (const auto m : {DepthMethod::kCpfm, DepthMethod::kCffm})
-      reg("lazy/" + n + "/" + tc::depth_method_name(m) + "/bottom_" +
-              std::to_string(static_cast<int>(100 * f)) + "pct",
-          [c, m, f](benchmark::State& s) { lazy(s, c, {.method = m}, f); });
+  for (const auto& [region, rn] : {std::pair{tc::LazyRegion::kLocal, "local"},
+                                   std::pair{tc::LazyRegion::kWholeBoundary, "whole"}})
+    for (const auto m : {DepthMethod::kCpfm, DepthMethod::kCffm}) {
+      const std::string prefix = "lazy/" + n + "/" + tc::depth_method_name(m) + "/";
+      for (const double f : {0.1, 0.25})
+        reg(prefix + "bottom_" + std::to_string(static_cast<int>(100 * f)) + "pct/" + rn,
+            [c, m, f, r = region](benchmark::State& s) {
+              lazy(s, c, {.method = m, .lazy_region = r}, f);
+            });
+      reg(prefix + "press_5pct/" + rn, [c, m, r = region](benchmark::State& s) {
+        lazy(s, c, {.method = m, .lazy_region = r}, 0.05, true);
+      });
+    }
   if (!big)
     for (const int g : {32, 64})
       reg("grid_fm/" + n + "/N:" + std::to_string(g), [c, g](benchmark::State& s) {

@@ -466,32 +466,27 @@ INSTANTIATE_TEST_SUITE_P(
                       LocalCase{DepthMethod::kCffm, CffmVariant::kMultiStart, QueueKind::kRadix}));
 
 // A region that cannot certify its depths grows; a contact spanning the object ends in
-// the whole run, whose values are the whole-boundary run's bit for bit.
+// the whole run, whose values are the whole-boundary run's bit for bit; the next small
+// press is local again and leaves nothing of the whole run behind.
 TEST(DepthLazyLocal, GrowsUntilCertifiedOrWhole) {
-  {
-    // The middle of a 24 x 24 x 6 slab: 3 elements deep; the first cell side (twice the
-    // largest marked element, about 1.5 elements) cannot hold it, a larger one can.
-    const TetMesh m = test::structured_box(24, 24, 6, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25));
-    const Topology topo = build_topology(m.tets, m.num_nodes());
-    DepthSolver local(m.tets, topo);
-    DepthSolver whole(m.tets, topo, {.lazy_region = LazyRegion::kWholeBoundary});
-    const std::vector<Index> deep = tets_near(m, Vector3d(0.5, 0.5, 0.125), 0.01);
-    const auto nl = local.compute_lazy(m.positions, deep);
-    const auto nw = whole.compute_lazy(m.positions, deep);
-    ASSERT_TRUE(nl && nw);
-    EXPECT_GE(local.lazy_stats().rounds, 2);
-    EXPECT_FALSE(local.lazy_stats().whole);
-    EXPECT_LT(*nl * 2, *nw);
-    for (const Index t : deep)
-      for (const Index v : m.tets[t]) {
-        EXPECT_LE(local.depth()[v], local.lazy_stats().cell_side);
-        EXPECT_NEAR(local.depth()[v], whole.depth()[v], 1e-12);
-      }
-  }
-  const TetMesh m = test::structured_box(12, 12, 12, Vector3d(0, 0, 0), Vector3d(1, 1, 1));
+  // The middle of a 24 x 24 x 6 slab: 3 elements deep; the first cell side (twice the
+  // largest marked element, about 1.5 elements) cannot hold it, a larger one can.
+  const TetMesh m = test::structured_box(24, 24, 6, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25));
   const Topology topo = build_topology(m.tets, m.num_nodes());
   DepthSolver local(m.tets, topo);
   DepthSolver whole(m.tets, topo, {.lazy_region = LazyRegion::kWholeBoundary});
+  const std::vector<Index> deep = tets_near(m, Vector3d(0.5, 0.5, 0.125), 0.01);
+  const auto nl = local.compute_lazy(m.positions, deep);
+  const auto nw = whole.compute_lazy(m.positions, deep);
+  ASSERT_TRUE(nl && nw);
+  EXPECT_GE(local.lazy_stats().rounds, 2);
+  EXPECT_FALSE(local.lazy_stats().whole);
+  EXPECT_LT(*nl * 2, *nw);
+  for (const Index t : deep)
+    for (const Index v : m.tets[t]) {
+      EXPECT_LE(local.depth()[v], local.lazy_stats().cell_side);
+      EXPECT_NEAR(local.depth()[v], whole.depth()[v], 1e-12);
+    }
   // Every tet marked: the whole object.
   std::vector<Index> all(static_cast<std::size_t>(m.num_tets()));
   std::iota(all.begin(), all.end(), Index{0});
@@ -499,14 +494,21 @@ TEST(DepthLazyLocal, GrowsUntilCertifiedOrWhole) {
   ASSERT_TRUE(whole.compute_lazy(m.positions, all));
   EXPECT_TRUE(local.lazy_stats().whole);
   for (Index i = 0; i < m.num_nodes(); ++i) EXPECT_EQ(local.depth()[i], whole.depth()[i]);
+  // Most of the top face: more than a third of the nodes would be in the region, so
+  // the whole run does it, with the whole run's values.
+  const std::vector<Index> wide = tets_near(m, Vector3d(0.5, 0.5, 0.25), 0.45);
+  ASSERT_TRUE(local.compute_lazy(m.positions, wide));
+  ASSERT_TRUE(whole.compute_lazy(m.positions, wide));
+  EXPECT_TRUE(local.lazy_stats().whole);
+  for (Index i = 0; i < m.num_nodes(); ++i) EXPECT_EQ(local.depth()[i], whole.depth()[i]);
   // Then a small press again: local, and nothing of the whole run is left.
-  const std::vector<Index> small = tets_near(m, Vector3d(0.5, 0.5, 1.0), 0.05);
-  const auto nl = local.compute_lazy(m.positions, small);
-  ASSERT_TRUE(nl);
+  const std::vector<Index> small = tets_near(m, Vector3d(0.5, 0.5, 0.25), 0.03);
+  const auto ns = local.compute_lazy(m.positions, small);
+  ASSERT_TRUE(ns);
   EXPECT_FALSE(local.lazy_stats().whole);
   std::size_t finite = 0;
   for (const double d : local.depth()) finite += std::isfinite(d) ? 1 : 0;
-  EXPECT_EQ(finite, *nl);
+  EXPECT_EQ(finite, *ns);
 }
 
 // A non-finite coordinate the local run reads is an error naming the node; one it does
