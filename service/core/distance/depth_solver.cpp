@@ -347,8 +347,10 @@ struct BasicDepthSolver<D>::Impl {
     anchor.assign(nn, -1);
     all_boundary.resize(static_cast<std::size_t>(num_boundary));
     for (Index b = 0; b < num_boundary; ++b) all_boundary[b] = b;
-    frame_mark.assign(surface.simplices.size(), 0);
-    frames.resize(surface.simplices.size());
+    if (options.method == DepthMethod::kCffm) {  // CPFM reads no feature records
+      frame_mark.assign(surface.simplices.size(), 0);
+      frames.resize(surface.simplices.size());
+    }
     region_mark.assign(nn, 0);
     tested_mark.assign(nn, 0);
     mark.assign(nn, 0);
