@@ -47,6 +47,17 @@ struct TetGeometry {
   /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
   /// the other), kTetEdges order; unused when flat.
   std::array<Eigen::Vector3d, 6> arc;
+
+  // The same quantities by coordinate (structure of arrays), for the vectorised
+  // tets_overlap(): index = face k, corner i or edge j; the values are bit for bit those
+  // the reference test computes from the fields above.
+  std::array<double, 4> nx, ny, nz;  ///< n[k], m^2
+  std::array<double, 4> ux, uy, uz;  ///< unit normals n[k] * n_inv[k]
+  std::array<double, 4> lx, ly, lz;  ///< corners relative to the first: v[i] - v[0], m
+  /// n[k] . (v[kTetFaces[k][0]] - v[0]) and n[k] . (v[k] - v[0]): where face k's plane and
+  /// the opposite corner project on n[k], in coordinates relative to v[0], m^3.
+  std::array<double, 4> plane, apex;
+  std::array<double, 8> ax, ay, az;  ///< arc[j] for j < 6; entries 6 and 7 are 0
 };
 
 /// Derived geometry of a tet given by its corners.
@@ -77,8 +88,16 @@ double sat_penetration(const TetCorners& a, const TetCorners& b);
 /// one tet deeper than `tolerance` inside the other). Shared faces, coplanar faces on
 /// opposite sides, and touching vertices or edges are not overlaps. A zero-volume tet
 /// lying inside the other one is an overlap (it has to move to get out).
+///
+/// Computed 4 axes at a time (face normals, Gauss-map arc tests, corner projections),
+/// with the same floating-point operations per axis as tets_overlap_reference(), so the
+/// answer is that function's bit for bit; pairs with a flat tet go to the reference.
 bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance);
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance);
+
+/// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
+/// order documented there); kept for flat tets and as the reference in tests.
+bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double tolerance);
 
 /// Result of point_in_tet().
 struct PointInTet {
