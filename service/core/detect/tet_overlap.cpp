@@ -7,6 +7,8 @@
 #include <cstring>
 #include <limits>
 
+#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
+
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -224,15 +226,13 @@ TC_INLINE V4 load4(const double* p) {
 TC_INLINE V4 splat(double x) {
   return V4{x, x, x, x};
 }
-TC_INLINE V4 select(M4 m, V4 yes, V4 no) {
-  return reinterpret_cast<V4>((m & reinterpret_cast<M4>(yes)) | (~m & reinterpret_cast<M4>(no)));
-}
-/// std::min(a, b) and std::max(a, b) lane by lane (same lane chosen for NaN and +-0).
+/// std::min(a, b) and std::max(a, b) lane by lane (same lane chosen for NaN and +-0; the
+/// form of the x86 min/max instructions).
 TC_INLINE V4 vmin(V4 a, V4 b) {
-  return select(b < a, b, a);
+  return b < a ? b : a;
 }
 TC_INLINE V4 vmax(V4 a, V4 b) {
-  return select(a < b, b, a);
+  return a < b ? b : a;
 }
 /// dot3 lane by lane, same order: (x X + y Y) + z Z.
 TC_INLINE V4 vdot(V4 x, V4 y, V4 z, V4 X, V4 Y, V4 Z) {
@@ -240,7 +240,9 @@ TC_INLINE V4 vdot(V4 x, V4 y, V4 z, V4 X, V4 Y, V4 Z) {
 }
 /// Bit k set when lane k of m is set.
 TC_INLINE unsigned lanes(M4 m) {
-  return static_cast<unsigned>((m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8));
+  const V4 d = reinterpret_cast<V4>(m);
+  const __m128d lo = __builtin_shufflevector(d, d, 0, 1), hi = __builtin_shufflevector(d, d, 2, 3);
+  return static_cast<unsigned>(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
 }
 
 /// tets_overlap(): Sat<true>::run() for two non-flat tets, 4 axes at a time.
@@ -264,9 +266,12 @@ class FastSat {
       : a_(a), b_(b), tol_(tol) {
     // B's corners relative to A's first corner (Sat's b_), by coordinate.
     const Vector3d& o = a.v[0];
-    bx_ = V4{b.v[0].x(), b.v[1].x(), b.v[2].x(), b.v[3].x()} - splat(o.x());
-    by_ = V4{b.v[0].y(), b.v[1].y(), b.v[2].y(), b.v[3].y()} - splat(o.y());
-    bz_ = V4{b.v[0].z(), b.v[1].z(), b.v[2].z(), b.v[3].z()} - splat(o.z());
+    for (int i = 0; i < 4; ++i) {
+      bl_[0][i] = b.v[i].x() - o.x();
+      bl_[1][i] = b.v[i].y() - o.y();
+      bl_[2][i] = b.v[i].z() - o.z();
+    }
+    bx_ = load4(bl_[0]), by_ = load4(bl_[1]), bz_ = load4(bl_[2]);
   }
 
   TC_INLINE bool run() {
@@ -306,7 +311,7 @@ class FastSat {
     const V4 nx = load4(a_.nx.data()), ny = load4(a_.ny.data()), nz = load4(a_.nz.data());
     V4 p[4];
     for (int i = 0; i < 4; ++i)
-      p[i] = vdot(nx, ny, nz, splat(bx_[i]), splat(by_[i]), splat(bz_[i]));
+      p[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
     return faces(a_, load4(a_.plane.data()), load4(a_.apex.data()), p);
   }
 
@@ -316,7 +321,7 @@ class FastSat {
     V4 p[4], q[4];
     for (int i = 0; i < 4; ++i) {
       p[i] = vdot(nx, ny, nz, splat(a_.lx[i]), splat(a_.ly[i]), splat(a_.lz[i]));
-      q[i] = vdot(nx, ny, nz, splat(bx_[i]), splat(by_[i]), splat(bz_[i]));
+      q[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
     }
     // kTetFaces[k][0] = 1, 0, 0, 0: face k's plane through corner 1 (k = 0) or 0.
     const V4 plane = V4{q[1][0], q[0][1], q[0][2], q[0][3]};
@@ -379,7 +384,8 @@ class FastSat {
   const TetGeometry& a_;
   const TetGeometry& b_;
   double tol_;
-  V4 bx_, by_, bz_;  ///< B's corners relative to A's first corner, m
+  double bl_[3][4];  ///< B's corners relative to A's first corner by coordinate, m
+  V4 bx_, by_, bz_;  ///< the rows of bl_
 };
 
 }  // namespace
