@@ -6,7 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <tuple>
 
@@ -684,6 +686,55 @@ TEST_P(ClipCases, ThroughInsideInFaceTouchingAndOutside) {
 }
 
 INSTANTIATE_TEST_SUITE_P(TetOverlap, ClipCases, kDyadicFrames);
+
+TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
+  // Segments through, into, along faces and edges of, and near random tets (corners,
+  // points on faces, mirrored copies), under 1e6 offsets and 1e-6 scales, 3 tolerances.
+  std::mt19937 rng(8128);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int hits = 0, checked = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    TetCorners t = random_tet(rng, iter % 5 == 0 ? 0.0 : 0.05);
+    const auto on_tet = [&](int kind) -> Vector3d {
+      const int i = static_cast<int>(4 * u(rng)) % 4, j = (i + 1 + iter % 3) % 4;
+      switch (kind) {
+        case 0:
+          return t[i];  // a corner
+        case 1:
+          return t[i] + u(rng) * (t[j] - t[i]);  // on an edge
+        case 2: {                                // on a face
+          const double a = u(rng), b = u(rng) * (1.0 - a);
+          return t[i] + a * (t[j] - t[i]) +
+                 b * (t[(j + 1) % 4 == i ? (j + 2) % 4 : (j + 1) % 4] - t[i]);
+        }
+        default:  // anywhere around
+          return Vector3d(u(rng), u(rng), u(rng)) * 1.4 - Vector3d::Constant(0.2);
+      }
+    };
+    const Vector3d p0 = on_tet(iter % 4), p1 = on_tet((iter / 4) % 4);
+    for (const auto& [scale, offset] :
+         {std::pair{1.0, 0.0}, std::pair{1e-6, 0.0}, std::pair{1.0, 1e6}, std::pair{1e-6, 1e6}}) {
+      const Vector3d o(offset, 0.5 * offset, -offset);
+      const TetGeometry g = make_tet_geometry(transform(t, scale, o));
+      const Vector3d q0 = p0 * scale + o, q1 = p1 * scale + o;
+      for (const double tol : {0.0, kTol * scale, 1e-3 * scale}) {
+        const SegmentClip want = clip_segment_tet_reference(q0, q1, g, tol);
+        const SegmentClip got = clip_segment_tet(q0, q1, g, tol);
+        ASSERT_EQ(got.hit, want.hit) << "iteration " << iter << " scale " << scale;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(got.lambda_in),
+                  std::bit_cast<std::uint64_t>(want.lambda_in))
+            << "iteration " << iter;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(got.lambda_out),
+                  std::bit_cast<std::uint64_t>(want.lambda_out))
+            << "iteration " << iter;
+        hits += want.hit ? 1 : 0;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(hits, 50000);
+  EXPECT_EQ(checked, 240000);
+}
 
 TEST(ClipSegment, FlatTetsAndNaNNeverHit) {
   const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0),

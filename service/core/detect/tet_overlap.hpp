@@ -132,4 +132,9 @@ SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                              const TetCorners& t, double tolerance);
 
+/// clip_segment_tet() one face after the other (the 4 faces are lanes of one vector in
+/// clip_segment_tet(), with the same result bit for bit); the reference in tests.
+SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                       const TetGeometry& t, double tolerance);
+
 }  // namespace tc
