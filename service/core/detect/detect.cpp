@@ -294,7 +294,7 @@ void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
   const Positions& p = *body.positions_;
   detail::for_chunks(g.tets.size(), 512, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t i = begin; i < end; ++i)
-      g.geom[i] = make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]));
+      make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]), g.geom[i]);
   });
 }
 

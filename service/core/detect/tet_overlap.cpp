@@ -392,6 +392,11 @@ class FastSat {
 
 TetGeometry make_tet_geometry(const TetCorners& t) {
   TetGeometry g;
+  make_tet_geometry(t, g);
+  return g;
+}
+
+void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
   g.v = t;
   g.lo = g.hi = t[0];
   for (int i = 1; i < 4; ++i) {
@@ -417,7 +422,9 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
   for (int k = 0; k < 6; ++k) {
     const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
     g.arc[k] = (g.n[p] * g.n_inv[p]).cross(g.n[q] * g.n_inv[q]);
+    g.ax[k] = g.arc[k].x(), g.ay[k] = g.arc[k].y(), g.az[k] = g.arc[k].z();
   }
+  g.ax[6] = g.ax[7] = g.ay[6] = g.ay[7] = g.az[6] = g.az[7] = 0.0;
   // By coordinate, with the expressions Sat uses (a_[i] = v[i] - v[0], ua = n * n_inv,
   // dot3), so the vectorised test sees the same bits.
   TetCorners local;
@@ -430,11 +437,6 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
     g.plane[k] = dot3(g.n[k], local[kTetFaces[k][0]]);
     g.apex[k] = dot3(g.n[k], local[k]);
   }
-  for (int j = 0; j < 8; ++j) {
-    g.ax[j] = j < 6 ? g.arc[j].x() : 0.0;
-    g.ay[j] = j < 6 ? g.arc[j].y() : 0.0;
-    g.az[j] = j < 6 ? g.arc[j].z() : 0.0;
-  }
   if (!(t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite())) {
     // An empty box: separated from everything on the first axis.
     g.lo.setConstant(kInf);
@@ -442,7 +444,6 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
     g.scale = 0.0;
     g.flat = true;
   }
-  return g;
 }
 
 double tet_scale(const TetCorners& t) {

@@ -62,6 +62,8 @@ struct TetGeometry {
 
 /// Derived geometry of a tet given by its corners.
 TetGeometry make_tet_geometry(const TetCorners& t);
+/// The same, written into `g` (every field), so that an array of them is filled in place.
+void make_tet_geometry(const TetCorners& t, TetGeometry& g);
 
 /// Largest extent of the bounding box of the corners of `a` and `b` (metres): the length
 /// scale the tolerance of a tet pair is relative to.
