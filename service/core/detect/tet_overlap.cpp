@@ -388,6 +388,47 @@ class FastSat {
   V4 bx_, by_, bz_;  ///< the rows of bl_
 };
 
+// clip_segment_tet(): the 4 faces as lanes, each with the reference's operations (dot3 of n with p
+// - f, times 1/|n|, the tol snap). Why the result is the reference's bit for bit: (1) it returns
+// "no hit" as soon as one face has both ends outside, so any face order gives the same "no hit";
+// (2) lambda_in is the max of 0 and the entering ratios d0 / (d0 - d1) > 0 (NaN ignored, as
+// std::max(lambda_in, NaN) does), a maximum of positive values, the same in any order; (3)
+// lambda_out is the min of 1 and the leaving ratios, which are positive or zero; the order can only
+// change the sign of a zero result, and a zero lambda_out is never a hit (it needs lambda_out >
+// lambda_in >= 0), so the returned values are the same.
+TC_INLINE SegmentClip clip_lanes(const Vector3d& p0, const Vector3d& p1, const TetGeometry& t,
+                                 double tolerance) {
+  SegmentClip out;
+  const double tol = std::max(tolerance, 0.0);
+  const double length = (p1 - p0).norm();
+  if (!(length > tol) || !std::isfinite(length) || t.flat) return out;
+  // Face k's plane passes through corner kTetFaces[k][0] = 1, 0, 0, 0.
+  const Vector3d& f0 = t.v[0];
+  const Vector3d& f1 = t.v[1];
+  const V4 fx{f1.x(), f0.x(), f0.x(), f0.x()}, fy{f1.y(), f0.y(), f0.y(), f0.y()},
+      fz{f1.z(), f0.z(), f0.z(), f0.z()};
+  const V4 nx = load4(t.nx.data()), ny = load4(t.ny.data()), nz = load4(t.nz.data());
+  const V4 inv = load4(t.n_inv.data());
+  const V4 zero = splat(0.0), lo = splat(-tol), hi = splat(tol);
+  V4 d0 = vdot(nx, ny, nz, splat(p0.x()) - fx, splat(p0.y()) - fy, splat(p0.z()) - fz) * inv;
+  V4 d1 = vdot(nx, ny, nz, splat(p1.x()) - fx, splat(p1.y()) - fy, splat(p1.z()) - fz) * inv;
+  const M4 on0 = (d0 >= lo) & (d0 <= hi), on1 = (d1 >= lo) & (d1 <= hi);
+  d0 = on0 ? zero : d0;  // |d| <= tol counts as on the plane
+  d1 = on1 ? zero : d1;
+  if (lanes((d0 <= zero) | (d1 <= zero)) != 15) return out;  // both ends outside a face
+  const V4 ratio = d0 / (d0 - d1);
+  const M4 entering = (d0 > zero) & (ratio == ratio);
+  const M4 leaving = ~(d0 > zero) & (d1 > zero) & (ratio == ratio);
+  const V4 in = entering ? ratio : zero, out4 = leaving ? ratio : splat(1.0);
+  const double lambda_in = std::max(std::max(in[0], in[1]), std::max(in[2], in[3]));
+  const double lambda_out = std::min(std::min(out4[0], out4[1]), std::min(out4[2], out4[3]));
+  if (!((lambda_out - lambda_in) * length > tol)) return out;
+  out.hit = true;
+  out.lambda_in = lambda_in;
+  out.lambda_out = lambda_out;
+  return out;
+}
+
 }  // namespace
 
 TetGeometry make_tet_geometry(const TetCorners& t) {
@@ -540,44 +581,9 @@ SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::V
   return out;
 }
 
-// The 4 faces as lanes, each with the reference's operations (dot3 of n with p - f, times
-// 1/|n|, the tol snap). Why the result is the reference's bit for bit: (1) it returns "no
-// hit" as soon as one face has both ends outside, so any face order gives the same "no
-// hit"; (2) lambda_in is the max of 0 and the entering ratios d0 / (d0 - d1) > 0 (NaN
-// ignored, as std::max(lambda_in, NaN) does), a maximum of positive values, the same in
-// any order; (3) lambda_out is the min of 1 and the leaving ratios, which are positive or
-// zero; the order can only change the sign of a zero result, and a zero lambda_out is
-// never a hit (it needs lambda_out > lambda_in >= 0), so the returned values are the same.
 __attribute__((target_clones("avx2", "default"))) SegmentClip clip_segment_tet(
     const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const TetGeometry& t, double tolerance) {
-  SegmentClip out;
-  const double tol = std::max(tolerance, 0.0);
-  const double length = (p1 - p0).norm();
-  if (!(length > tol) || !std::isfinite(length) || t.flat) return out;
-  // Face k's plane passes through corner kTetFaces[k][0] = 1, 0, 0, 0.
-  const Vector3d& f0 = t.v[0];
-  const Vector3d& f1 = t.v[1];
-  const V4 fx{f1.x(), f0.x(), f0.x(), f0.x()}, fy{f1.y(), f0.y(), f0.y(), f0.y()},
-      fz{f1.z(), f0.z(), f0.z(), f0.z()};
-  const V4 nx = load4(t.nx.data()), ny = load4(t.ny.data()), nz = load4(t.nz.data());
-  const V4 inv = load4(t.n_inv.data());
-  const V4 zero = splat(0.0), lo = splat(-tol), hi = splat(tol);
-  V4 d0 = vdot(nx, ny, nz, splat(p0.x()) - fx, splat(p0.y()) - fy, splat(p0.z()) - fz) * inv;
-  V4 d1 = vdot(nx, ny, nz, splat(p1.x()) - fx, splat(p1.y()) - fy, splat(p1.z()) - fz) * inv;
-  d0 = (d0 >= lo) & (d0 <= hi) ? zero : d0;  // |d| <= tol counts as on the plane
-  d1 = (d1 >= lo) & (d1 <= hi) ? zero : d1;
-  if (lanes((d0 <= zero) | (d1 <= zero)) != 15) return out;  // both ends outside a face
-  const V4 ratio = d0 / (d0 - d1);
-  const M4 entering = (d0 > zero) & (ratio == ratio);
-  const M4 leaving = ~(d0 > zero) & (d1 > zero) & (ratio == ratio);
-  const V4 in = entering ? ratio : zero, out4 = leaving ? ratio : splat(1.0);
-  const double lambda_in = std::max(std::max(in[0], in[1]), std::max(in[2], in[3]));
-  const double lambda_out = std::min(std::min(out4[0], out4[1]), std::min(out4[2], out4[3]));
-  if (!((lambda_out - lambda_in) * length > tol)) return out;
-  out.hit = true;
-  out.lambda_in = lambda_in;
-  out.lambda_out = lambda_out;
-  return out;
+  return clip_lanes(p0, p1, t, tolerance);
 }
 
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
