@@ -261,6 +261,14 @@ TC_INLINE unsigned lanes(M4 m) {
 ///   (s s' > 0 and |s|, |s'| > eps) <=> (s > eps and s' > eps) or (s < -eps and s' < -eps)
 /// (|s s'| > eps^2 cannot underflow and neither factor is 0 or NaN), likewise for s s' < 0.
 class FastSat {
+  // The lane shuffles below are written for these tables.
+  static_assert(kTetFaces[0][0] == 1 && kTetFaces[1][0] == 0 && kTetFaces[2][0] == 0 &&
+                kTetFaces[3][0] == 0);
+  static_assert(kEdgeFaces[0][0] == 2 && kEdgeFaces[1][0] == 1 && kEdgeFaces[2][0] == 1 &&
+                kEdgeFaces[3][0] == 0 && kEdgeFaces[4][0] == 0 && kEdgeFaces[5][0] == 0);
+  static_assert(kEdgeFaces[0][1] == 3 && kEdgeFaces[1][1] == 3 && kEdgeFaces[2][1] == 2 &&
+                kEdgeFaces[3][1] == 3 && kEdgeFaces[4][1] == 2 && kEdgeFaces[5][1] == 1);
+
  public:
   TC_INLINE FastSat(const TetGeometry& a, const TetGeometry& b, double tol)
       : a_(a), b_(b), tol_(tol) {
