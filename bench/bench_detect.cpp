@@ -7,6 +7,9 @@
 //   LargeBoxes/<broad>/<threads>           two structured boxes of 37^3 x 6 = 303,918 tets
 //       ([0,1]^3), B shifted by 0.9 m along x (10% overlap) and by a fraction of a cell
 //       along y and z so that no faces coincide
+//   NarrowPairs/<fast>/<sink_um>           the exact tet-tet test alone on the torus/box
+//       pairs whose tet boxes overlap (what the broad phase hands over), per pair:
+//       fast = 0 tets_overlap_reference (scalar), 1 tets_overlap (vectorised)
 //
 // Time is wall-clock (UseRealTime); counters give the candidate and overlapping pairs
 // and the broad/narrow split. Results and commands: docs/BENCHMARKS.md.
@@ -18,6 +21,7 @@
 #include <memory>
 
 #include "core/detect/detect.hpp"
+#include "core/detect/tet_overlap.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
 #include "test_meshes.hpp"
@@ -132,6 +136,53 @@ void LargeBoxes(benchmark::State& state) {
   run_frames(state, large_a(), large_b(), Eigen::Vector3d::Zero());
 }
 
+/// Geometry of every tet (metres) and the (tet of a, tet of b) pairs whose boxes overlap.
+struct PairSet {
+  std::vector<TetGeometry> a, b;
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+};
+
+PairSet box_pairs(const Object& a, const Object& b, const Eigen::Vector3d& move_b) {
+  PairSet s;
+  Positions pb = b.mesh.positions;
+  pb.colwise() += move_b;
+  for (const Tet& t : a.mesh.tets)
+    s.a.push_back(make_tet_geometry(tet_corners(a.mesh.positions, t)));
+  for (const Tet& t : b.mesh.tets) s.b.push_back(make_tet_geometry(tet_corners(pb, t)));
+  for (std::size_t i = 0; i < s.a.size(); ++i)
+    for (std::size_t j = 0; j < s.b.size(); ++j)
+      if ((s.a[i].lo.array() <= s.b[j].hi.array()).all() &&
+          (s.b[j].lo.array() <= s.a[i].hi.array()).all())
+        s.pairs.emplace_back(i, j);
+  return s;
+}
+
+void NarrowPairs(benchmark::State& state) {
+  const Object *a = box(), *b = torus();
+  if (a == nullptr || b == nullptr) {
+    state.SkipWithError("mesh not available");
+    return;
+  }
+  const double sink = static_cast<double>(state.range(1)) * 1e-6;
+  const PairSet s = box_pairs(*a, *b, Eigen::Vector3d(0.0, 0.0, 0.25 - sink));
+  using Test = bool (*)(const TetGeometry&, const TetGeometry&, double);
+  const Test test = state.range(0) != 0 ? Test{&tets_overlap} : Test{&tets_overlap_reference};
+  const double rel = kDefaultRelativeTolerance;
+  std::size_t overlapping = 0;
+  for (auto _ : state) {
+    overlapping = 0;
+    for (const auto& [i, j] : s.pairs)
+      overlapping += test(s.a[i], s.b[j], rel * pair_scale(s.a[i], s.b[j])) ? 1 : 0;
+    benchmark::DoNotOptimize(overlapping);
+  }
+  state.counters["pairs"] = static_cast<double>(s.pairs.size());
+  state.counters["overlapping"] = static_cast<double>(overlapping);
+  state.counters["ns_per_pair"] = benchmark::Counter(
+      static_cast<double>(s.pairs.size()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.SetLabel(state.range(0) != 0 ? "vectorised" : "reference");
+}
+
 void torus_args(benchmark::internal::Benchmark* b) {
   for (const int kind : {0, 1, 2, 3})
     for (const int threads : {1, 2}) b->Args({kind, threads, 10000});
@@ -148,6 +199,12 @@ BENCHMARK(TorusBox)
     ->Apply(torus_args)
     ->ArgNames({"broad", "threads", "sink_um"})
     ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+BENCHMARK(NarrowPairs)
+    ->ArgsProduct({{0, 1}, {5000, 10000}})
+    ->ArgNames({"fast", "sink_um"})
+    ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->MinTime(0.5);
 BENCHMARK(LargeBoxes)

@@ -6,7 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <tuple>
 
@@ -415,6 +417,109 @@ TEST(TetOverlap, TranslationAndScaleInvariantOnRandomPairs) {
   EXPECT_GT(checked, 300);
 }
 
+// ------------------------------------------------- vectorised test against the reference
+
+/// tets_overlap() (4 axes at a time) must answer exactly as tets_overlap_reference() (the
+/// scalar walk) for every input: both orders, several tolerances, and the inputs where the
+/// answer hangs on rounding (pairs moved to the reference's own overlap boundary).
+class VectorisedOverlap : public ::testing::Test {
+ protected:
+  std::mt19937 rng_{20261203};
+  std::uniform_real_distribution<double> u_{0.0, 1.0};
+  int checked_ = 0, overlapping_ = 0;
+
+  Vector3d random_unit() {
+    std::normal_distribution<double> g;
+    return Vector3d(g(rng_), g(rng_), g(rng_)).normalized();
+  }
+
+  /// Compares the two functions on (a, b) and (b, a) under offset/scale transforms and
+  /// tolerances 0, the detection one, and a large one.
+  void check(const TetCorners& a, const TetCorners& b) {
+    for (const auto& [scale, offset] :
+         {std::pair{1.0, 0.0}, std::pair{1e-6, 0.0}, std::pair{1.0, 1e6}, std::pair{1e-6, 1e6}}) {
+      const Vector3d o(offset, -0.7 * offset, 0.3 * offset);
+      const TetGeometry ga = make_tet_geometry(transform(a, scale, o));
+      const TetGeometry gb = make_tet_geometry(transform(b, scale, o));
+      const double s = pair_scale(ga, gb);
+      for (const double tol : {0.0, kTol * s, 1e-3 * s, -1.0}) {
+        const bool want = tets_overlap_reference(ga, gb, tol);
+        ASSERT_EQ(tets_overlap(ga, gb, tol), want)
+            << "check " << checked_ << " scale " << scale << " offset " << offset << " tol " << tol;
+        ASSERT_EQ(tets_overlap(gb, ga, tol), tets_overlap_reference(gb, ga, tol))
+            << "check " << checked_ << " (swapped) scale " << scale << " offset " << offset;
+        overlapping_ += want ? 1 : 0;
+      }
+    }
+    ++checked_;
+  }
+
+  /// B moved along d to the reference's overlap boundary (bisection), then checked at and
+  /// around it: the pairs where a different rounding would flip the answer.
+  void check_boundary(const TetCorners& a, const TetCorners& b, const Vector3d& d) {
+    const auto moved = [&](double t) {
+      TetCorners c = b;
+      for (auto& p : c) p += t * d;
+      return c;
+    };
+    const auto ref = [&](double t) {
+      const TetCorners c = moved(t);
+      return tets_overlap_reference(make_tet_geometry(a), make_tet_geometry(c),
+                                    kTol * pair_scale(a, c));
+    };
+    double lo = 0.0, hi = 4.0;
+    if (!ref(lo) || ref(hi)) return;
+    for (int k = 0; k < 80; ++k) (ref(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+    double t = lo;
+    for (int k = 0; k < 6; ++k, t = std::nextafter(t, 4.0)) check(a, moved(t));
+  }
+};
+
+TEST_F(VectorisedOverlap, RandomPairsOfEveryKindAgreeBitForBit) {
+  for (int iter = 0; iter < 6000; ++iter) {
+    const int kind = iter % 8;
+    TetCorners a = random_tet(rng_, kind == 6 ? 0.0 : 0.05);
+    TetCorners b = random_tet(rng_, 0.05);
+    const Vector3d shift = (1.2 * u_(rng_)) * random_unit();
+    switch (kind) {
+      case 0:  // anything from deep to far apart
+        for (auto& p : b) p += shift;
+        break;
+      case 1:  // small tet in, across or near a large one (corner-deep accepts)
+        for (auto& p : b) p = 0.1 * p + Vector3d(u_(rng_), u_(rng_), u_(rng_)) * 0.5;
+        break;
+      case 2:  // shared face: B's fourth corner on either side of the face
+        b = {a[1], a[3], a[2], a[1] + (u_(rng_) - 0.5) * 2.0 * random_unit()};
+        break;
+      case 3:  // coplanar faces: B = A mirrored through its face 0, slid along it
+        for (int i = 0; i < 4; ++i) {
+          const Vector3d n = (a[2] - a[1]).cross(a[3] - a[1]).normalized();
+          b[i] = a[i] - 2.0 * n.dot(a[i] - a[1]) * n + 0.3 * u_(rng_) * (a[2] - a[1]);
+        }
+        break;
+      case 4:  // shared edge or corner
+        b[0] = a[0];
+        if (u_(rng_) < 0.5) b[1] = a[1];
+        break;
+      case 5:  // flat A (the reference's path), B nearby
+        a[0] = (a[1] + a[2] + a[3]) / 3.0 + 0.2 * (a[1] - a[2]);
+        for (auto& p : b) p += 0.3 * shift;
+        break;
+      case 6:  // sliver A (needle or wedge), B nearby
+        a[0] = (a[1] + a[2] + a[3]) / 3.0 + std::pow(10.0, -3.0 - 9.0 * u_(rng_)) * random_unit();
+        for (auto& p : b) p += 0.3 * shift;
+        break;
+      default:  // both on each other's overlap boundary along a random direction
+        check_boundary(a, b, random_unit());
+        continue;
+    }
+    check(a, b);
+    if (kind < 3) check_boundary(a, b, random_unit());
+  }
+  EXPECT_GT(checked_, 10000);
+  EXPECT_GT(overlapping_, 20000);
+}
+
 // ----------------------------------------------------------------------------- point-in-tet
 
 TEST(PointInTet, BarycentricsReproduceThePointAndSumToOne) {
@@ -581,6 +686,55 @@ TEST_P(ClipCases, ThroughInsideInFaceTouchingAndOutside) {
 }
 
 INSTANTIATE_TEST_SUITE_P(TetOverlap, ClipCases, kDyadicFrames);
+
+TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
+  // Segments through, into, along faces and edges of, and near random tets (corners,
+  // points on faces, mirrored copies), under 1e6 offsets and 1e-6 scales, 3 tolerances.
+  std::mt19937 rng(8128);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int hits = 0, checked = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    TetCorners t = random_tet(rng, iter % 5 == 0 ? 0.0 : 0.05);
+    const auto on_tet = [&](int kind) -> Vector3d {
+      const int i = static_cast<int>(4 * u(rng)) % 4, j = (i + 1 + iter % 3) % 4;
+      switch (kind) {
+        case 0:
+          return t[i];  // a corner
+        case 1:
+          return t[i] + u(rng) * (t[j] - t[i]);  // on an edge
+        case 2: {                                // on a face
+          const double a = u(rng), b = u(rng) * (1.0 - a);
+          return t[i] + a * (t[j] - t[i]) +
+                 b * (t[(j + 1) % 4 == i ? (j + 2) % 4 : (j + 1) % 4] - t[i]);
+        }
+        default:  // anywhere around
+          return Vector3d(u(rng), u(rng), u(rng)) * 1.4 - Vector3d::Constant(0.2);
+      }
+    };
+    const Vector3d p0 = on_tet(iter % 4), p1 = on_tet((iter / 4) % 4);
+    for (const auto& [scale, offset] :
+         {std::pair{1.0, 0.0}, std::pair{1e-6, 0.0}, std::pair{1.0, 1e6}, std::pair{1e-6, 1e6}}) {
+      const Vector3d o(offset, 0.5 * offset, -offset);
+      const TetGeometry g = make_tet_geometry(transform(t, scale, o));
+      const Vector3d q0 = p0 * scale + o, q1 = p1 * scale + o;
+      for (const double tol : {0.0, kTol * scale, 1e-3 * scale}) {
+        const SegmentClip want = clip_segment_tet_reference(q0, q1, g, tol);
+        const SegmentClip got = clip_segment_tet(q0, q1, g, tol);
+        ASSERT_EQ(got.hit, want.hit) << "iteration " << iter << " scale " << scale;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(got.lambda_in),
+                  std::bit_cast<std::uint64_t>(want.lambda_in))
+            << "iteration " << iter;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(got.lambda_out),
+                  std::bit_cast<std::uint64_t>(want.lambda_out))
+            << "iteration " << iter;
+        hits += want.hit ? 1 : 0;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(hits, 50000);
+  EXPECT_EQ(checked, 240000);
+}
 
 TEST(ClipSegment, FlatTetsAndNaNNeverHit) {
   const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0),

@@ -290,11 +290,14 @@ Detector::Detector(DetectOptions options) : options_(options) {}
 void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
   if (g.slot.size() < body.tets_.size()) g.slot.resize(body.tets_.size(), -1);
   g.geom.resize(g.tets.size());
+  g.boxes.resize(g.tets.size());
   for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
   const Positions& p = *body.positions_;
   detail::for_chunks(g.tets.size(), 512, [&](std::size_t begin, std::size_t end, std::size_t) {
-    for (std::size_t i = begin; i < end; ++i)
-      g.geom[i] = make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]));
+    for (std::size_t i = begin; i < end; ++i) {
+      make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]), g.geom[i]);
+      g.boxes[i] = {g.geom[i].lo, g.geom[i].hi, g.geom[i].scale};
+    }
   });
 }
 
@@ -547,12 +550,13 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
                              const Index ty = rows.items[k];
                              if (ty >= best) break;  // rows are sorted
-                             const TetGeometry& g = gy.geom[gy.slot[ty]];
-                             const double tol = rel * g.scale;
-                             if (!((p.array() >= g.lo.array() - tol).all() &&
-                                   (p.array() <= g.hi.array() + tol).all()))
+                             const Index slot = gy.slot[ty];
+                             const TetBox& box = gy.boxes[slot];
+                             const double tol = rel * box.scale;
+                             if (!((p.array() >= box.lo.array() - tol).all() &&
+                                   (p.array() <= box.hi.array() + tol).all()))
                                continue;
-                             const PointInTet hit = point_in_tet(p, g, tol);
+                             const PointInTet hit = point_in_tet(p, gy.geom[slot], tol);
                              if (hit.inside) {
                                best = ty;
                                bary = hit.bary;
@@ -616,12 +620,12 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
               const Index slot = gy.slot[ty];
               if (marks.mark[slot] == now) continue;
               marks.mark[slot] = now;
-              const TetGeometry& g = gy.geom[slot];
-              const double tol = rel * std::max(g.scale, length);
-              if (!((lo.array() <= g.hi.array() + tol).all() &&
-                    (hi.array() >= g.lo.array() - tol).all()))
+              const TetBox& box = gy.boxes[slot];
+              const double tol = rel * std::max(box.scale, length);
+              if (!((lo.array() <= box.hi.array() + tol).all() &&
+                    (hi.array() >= box.lo.array() - tol).all()))
                 continue;
-              const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
+              const SegmentClip clip = clip_segment_tet(p0, p1, gy.geom[slot], tol);
               if (clip.hit)
                 hits.push_back({{edge, ty, clip.lambda_in, clip.lambda_out}, tol / length});
             }

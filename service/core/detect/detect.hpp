@@ -157,9 +157,16 @@ class Detector {
     std::vector<Index> items;
   };
   /// Derived geometry of the tets of one body that appear in candidate pairs.
+  /// Box (metres) and largest extent of a tet: what the intrusion scans test first,
+  /// apart from the ~1 kB TetGeometry so that a rejected tet costs one cache line.
+  struct TetBox {
+    Eigen::Vector3d lo, hi;
+    double scale = 0.0;
+  };
   struct Geometry {
     std::vector<Index> tets;        ///< sorted
     std::vector<TetGeometry> geom;  ///< one per entry of tets
+    std::vector<TetBox> boxes;      ///< geom[i].lo, .hi, .scale
     std::vector<Index> slot;        ///< scratch, per tet of the body: index or -1
   };
   void build_geometry(const CollisionBody& body, Geometry& g);

@@ -1,8 +1,13 @@
 #include "core/detect/tet_overlap.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+
+#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 
 #include "core/mesh/geometry.hpp"
 
@@ -206,10 +211,241 @@ class Sat {
   bool accepted_ = false;
 };
 
+#define TC_INLINE [[gnu::always_inline]] inline
+
+/// Four doubles in one vector (two SSE2 registers on baseline x86-64, one AVX register
+/// where enabled); arithmetic and comparisons act lane by lane, IEEE-exact like scalars.
+using V4 = double __attribute__((vector_size(32)));
+using M4 = std::int64_t __attribute__((vector_size(32)));  ///< lane masks: -1 or 0
+
+TC_INLINE V4 load4(const double* p) {
+  V4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+TC_INLINE V4 splat(double x) {
+  return V4{x, x, x, x};
+}
+/// std::min(a, b) and std::max(a, b) lane by lane (same lane chosen for NaN and +-0; the
+/// form of the x86 min/max instructions).
+TC_INLINE V4 vmin(V4 a, V4 b) {
+  return b < a ? b : a;
+}
+TC_INLINE V4 vmax(V4 a, V4 b) {
+  return a < b ? b : a;
+}
+/// dot3 lane by lane, same order: (x X + y Y) + z Z.
+TC_INLINE V4 vdot(V4 x, V4 y, V4 z, V4 X, V4 Y, V4 Z) {
+  return x * X + y * Y + z * Z;
+}
+/// Bit k set when lane k of m is set.
+TC_INLINE unsigned lanes(M4 m) {
+  const V4 d = reinterpret_cast<V4>(m);
+  const __m128d lo = __builtin_shufflevector(d, d, 0, 1), hi = __builtin_shufflevector(d, d, 2, 3);
+  return static_cast<unsigned>(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
+}
+
+/// tets_overlap(): Sat<true>::run() for two non-flat tets, 4 axes at a time.
+///
+/// Why the answer is the reference's, bit for bit: Sat<true> returns false at the first
+/// axis with !(pen > tol |u|) and true at the first "deep" corner; so its answer is fixed
+/// by, in this order: any coordinate axis separates -> false; any face axis of the first
+/// tet separates -> false; a corner of the other tet deep in it -> true; the same for the
+/// second tet's faces; any Gauss-map-crossing edge axis separates -> false; else true.
+/// The order of the axes inside one of these groups does not matter (only "any"). Each
+/// lane below evaluates one axis with the reference's operations in the reference's order
+/// (no FMA: x86-64 baseline has none and the file is built with -ffp-contract=off), so
+/// each pen, tol |u| and projection has the reference's bits; min/max keep std::min/max's
+/// operand order. The precomputed SoA fields (make_tet_geometry) are the same expressions
+/// Sat evaluates per pair. The arc test uses the exact identity
+///   (s s' > 0 and |s|, |s'| > eps) <=> (s > eps and s' > eps) or (s < -eps and s' < -eps)
+/// (|s s'| > eps^2 cannot underflow and neither factor is 0 or NaN), likewise for s s' < 0.
+class FastSat {
+  // The lane shuffles below are written for these tables.
+  static_assert(kTetFaces[0][0] == 1 && kTetFaces[1][0] == 0 && kTetFaces[2][0] == 0 &&
+                kTetFaces[3][0] == 0);
+  static_assert(kEdgeFaces[0][0] == 2 && kEdgeFaces[1][0] == 1 && kEdgeFaces[2][0] == 1 &&
+                kEdgeFaces[3][0] == 0 && kEdgeFaces[4][0] == 0 && kEdgeFaces[5][0] == 0);
+  static_assert(kEdgeFaces[0][1] == 3 && kEdgeFaces[1][1] == 3 && kEdgeFaces[2][1] == 2 &&
+                kEdgeFaces[3][1] == 3 && kEdgeFaces[4][1] == 2 && kEdgeFaces[5][1] == 1);
+
+ public:
+  TC_INLINE FastSat(const TetGeometry& a, const TetGeometry& b, double tol)
+      : a_(a), b_(b), tol_(tol) {
+    // B's corners relative to A's first corner (Sat's b_), by coordinate.
+    const Vector3d& o = a.v[0];
+    for (int i = 0; i < 4; ++i) {
+      bl_[0][i] = b.v[i].x() - o.x();
+      bl_[1][i] = b.v[i].y() - o.y();
+      bl_[2][i] = b.v[i].z() - o.z();
+    }
+    bx_ = load4(bl_[0]), by_ = load4(bl_[1]), bz_ = load4(bl_[2]);
+  }
+
+  TC_INLINE bool run() {
+    for (int d = 0; d < 3; ++d)
+      if (!(std::min(a_.hi[d] - b_.lo[d], b_.hi[d] - a_.lo[d]) > tol_)) return false;
+    const bool b_first = b_.scale > a_.scale;
+    for (int pass = 0; pass < 2; ++pass) {
+      const Outcome o = (pass == 0) == b_first ? faces_of_b() : faces_of_a();
+      if (o != Outcome::kUndecided) return o == Outcome::kDeep;
+    }
+    return !edges_separate();
+  }
+
+ private:
+  enum class Outcome { kUndecided, kSeparated, kDeep };
+
+  /// Sat::faces() of tet g for all 4 faces at once. plane, apex: Sat's c and opp per face
+  /// (m^3); p[i]: corner i of the other tet projected on the 4 normals (m^3).
+  [[nodiscard]] TC_INLINE Outcome faces(const TetGeometry& g, V4 plane, V4 apex,
+                                        const V4 (&p)[4]) const {
+    const V4 len = load4(g.n_len.data());
+    const M4 valid = (len > splat(0.0)) & (len < splat(kInf));
+    const V4 tl = splat(tol_) * len;
+    const V4 olo = vmin(vmin(p[0], p[1]), vmin(p[2], p[3]));
+    const V4 ohi = vmax(vmax(p[0], p[1]), vmax(p[2], p[3]));
+    const V4 pen = vmin(vmax(plane, apex) - olo, ohi - vmin(plane, apex));
+    if (lanes(valid & ~(pen > tl)) != 0) return Outcome::kSeparated;
+    if (g.flat || lanes(valid) != 15) return Outcome::kUndecided;
+    const V4 depth = plane - tl;  // outward normals: inside means below the plane
+    for (int i = 0; i < 4; ++i)
+      if (lanes(p[i] < depth) == 15) return Outcome::kDeep;
+    return Outcome::kUndecided;
+  }
+
+  /// A's faces against B's corners; A's plane and apex are per-tet (relative to v[0]).
+  [[nodiscard]] TC_INLINE Outcome faces_of_a() const {
+    const V4 nx = load4(a_.nx.data()), ny = load4(a_.ny.data()), nz = load4(a_.nz.data());
+    V4 p[4];
+    for (int i = 0; i < 4; ++i)
+      p[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
+    return faces(a_, load4(a_.plane.data()), load4(a_.apex.data()), p);
+  }
+
+  /// B's faces against A's corners; B's plane and apex from its corners relative to A's.
+  [[nodiscard]] TC_INLINE Outcome faces_of_b() const {
+    const V4 nx = load4(b_.nx.data()), ny = load4(b_.ny.data()), nz = load4(b_.nz.data());
+    V4 p[4], q[4];
+    for (int i = 0; i < 4; ++i) {
+      p[i] = vdot(nx, ny, nz, splat(a_.lx[i]), splat(a_.ly[i]), splat(a_.lz[i]));
+      q[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
+    }
+    // kTetFaces[k][0] = 1, 0, 0, 0: face k's plane through corner 1 (k = 0) or 0.
+    const V4 plane = V4{q[1][0], q[0][1], q[0][2], q[0][3]};
+    const V4 apex = V4{q[0][0], q[1][1], q[2][2], q[3][3]};
+    return faces(b_, plane, apex, p);
+  }
+
+  /// Sat's edge stage: true when the cross product of an edge pair whose Gauss-map arcs
+  /// may cross separates the tets.
+  [[nodiscard]] TC_INLINE bool edges_separate() const {
+    // da[f][j] = unit normal f of A . arc j of B, lanes j = 0..3 and 4..7.
+    const V4 bxl = load4(b_.ax.data()), byl = load4(b_.ay.data()), bzl = load4(b_.az.data());
+    const V4 bxh = load4(b_.ax.data() + 4), byh = load4(b_.ay.data() + 4),
+             bzh = load4(b_.az.data() + 4);
+    V4 dl[4], dh[4];
+    for (int f = 0; f < 4; ++f) {
+      const V4 x = splat(a_.ux[f]), y = splat(a_.uy[f]), z = splat(a_.uz[f]);
+      dl[f] = vdot(x, y, z, bxl, byl, bzl);
+      dh[f] = vdot(x, y, z, bxh, byh, bzh);
+    }
+    const V4 ux = load4(b_.ux.data()), uy = load4(b_.uy.data()), uz = load4(b_.uz.data());
+    const V4 eps = splat(kArcEps), neg = splat(-kArcEps);
+    const auto disjoint = [&](V4 s1, V4 s2, V4 s3, V4 s4) {
+      const M4 p1 = s1 > eps, n1 = s1 < neg;
+      const M4 p4 = s4 > eps, n4 = s4 < neg;
+      return (p1 & (s2 > eps)) | (n1 & (s2 < neg)) | (p4 & (s3 > eps)) | (n4 & (s3 < neg)) |
+             (p1 & n4) | (n1 & p4);
+    };
+    for (int i = 0; i < 6; ++i) {
+      // db[f][i] = unit normal f of B . arc i of A (lanes f); s1, s2 over lanes j.
+      const V4 db = vdot(splat(a_.ax[i]), splat(a_.ay[i]), splat(a_.az[i]), ux, uy, uz);
+      // kEdgeFaces[j][0] = 2 1 1 0 0 0, kEdgeFaces[j][1] = 3 3 2 3 2 1.
+      const V4 s1l = -__builtin_shufflevector(db, db, 2, 1, 1, 0);
+      const V4 s1h = -__builtin_shufflevector(db, db, 0, 0, 0, 0);
+      const V4 s2l = -__builtin_shufflevector(db, db, 3, 3, 2, 3);
+      const V4 s2h = -__builtin_shufflevector(db, db, 2, 1, 1, 1);
+      const int f3 = kEdgeFaces[i][0], f4 = kEdgeFaces[i][1];
+      unsigned crossing = ~lanes(disjoint(s1l, s2l, dl[f3], dl[f4])) & 15;
+      crossing |= (~lanes(disjoint(s1h, s2h, dh[f3], dh[f4])) & 3) << 4;
+      for (; crossing != 0; crossing &= crossing - 1)
+        if (separates(cross3(a_.e[i], b_.e[std::countr_zero(crossing)]))) return true;
+    }
+    return false;
+  }
+
+  /// Sat::axis() in kEarly mode: true when axis n separates.
+  [[nodiscard]] TC_INLINE bool separates(const Vector3d& n) const {
+    const double nn = dot3(n, n);
+    if (!(nn > 0.0) || !std::isfinite(nn)) return false;
+    const V4 x = splat(n.x()), y = splat(n.y()), z = splat(n.z());
+    const V4 pa = vdot(x, y, z, load4(a_.lx.data()), load4(a_.ly.data()), load4(a_.lz.data()));
+    const V4 pb = vdot(x, y, z, bx_, by_, bz_);
+    const double alo = std::min(std::min(pa[0], pa[1]), std::min(pa[2], pa[3]));
+    const double ahi = std::max(std::max(pa[0], pa[1]), std::max(pa[2], pa[3]));
+    const double blo = std::min(std::min(pb[0], pb[1]), std::min(pb[2], pb[3]));
+    const double bhi = std::max(std::max(pb[0], pb[1]), std::max(pb[2], pb[3]));
+    return !(std::min(ahi - blo, bhi - alo) > tol_ * std::sqrt(nn));
+  }
+
+  const TetGeometry& a_;
+  const TetGeometry& b_;
+  double tol_;
+  double bl_[3][4];  ///< B's corners relative to A's first corner by coordinate, m
+  V4 bx_, by_, bz_;  ///< the rows of bl_
+};
+
+// clip_segment_tet(): the 4 faces as lanes, each with the reference's operations (dot3 of n with p
+// - f, times 1/|n|, the tol snap). Why the result is the reference's bit for bit: (1) it returns
+// "no hit" as soon as one face has both ends outside, so any face order gives the same "no hit";
+// (2) lambda_in is the max of 0 and the entering ratios d0 / (d0 - d1) > 0 (NaN ignored, as
+// std::max(lambda_in, NaN) does), a maximum of positive values, the same in any order; (3)
+// lambda_out is the min of 1 and the leaving ratios, which are positive or zero; the order can only
+// change the sign of a zero result, and a zero lambda_out is never a hit (it needs lambda_out >
+// lambda_in >= 0), so the returned values are the same.
+TC_INLINE SegmentClip clip_lanes(const Vector3d& p0, const Vector3d& p1, const TetGeometry& t,
+                                 double tolerance) {
+  SegmentClip out;
+  const double tol = std::max(tolerance, 0.0);
+  const double length = (p1 - p0).norm();
+  if (!(length > tol) || !std::isfinite(length) || t.flat) return out;
+  // Face k's plane passes through corner kTetFaces[k][0] = 1, 0, 0, 0.
+  const Vector3d& f0 = t.v[0];
+  const Vector3d& f1 = t.v[1];
+  const V4 fx{f1.x(), f0.x(), f0.x(), f0.x()}, fy{f1.y(), f0.y(), f0.y(), f0.y()},
+      fz{f1.z(), f0.z(), f0.z(), f0.z()};
+  const V4 nx = load4(t.nx.data()), ny = load4(t.ny.data()), nz = load4(t.nz.data());
+  const V4 inv = load4(t.n_inv.data());
+  const V4 zero = splat(0.0), lo = splat(-tol), hi = splat(tol);
+  V4 d0 = vdot(nx, ny, nz, splat(p0.x()) - fx, splat(p0.y()) - fy, splat(p0.z()) - fz) * inv;
+  V4 d1 = vdot(nx, ny, nz, splat(p1.x()) - fx, splat(p1.y()) - fy, splat(p1.z()) - fz) * inv;
+  const M4 on0 = (d0 >= lo) & (d0 <= hi), on1 = (d1 >= lo) & (d1 <= hi);
+  d0 = on0 ? zero : d0;  // |d| <= tol counts as on the plane
+  d1 = on1 ? zero : d1;
+  if (lanes((d0 <= zero) | (d1 <= zero)) != 15) return out;  // both ends outside a face
+  const V4 ratio = d0 / (d0 - d1);
+  const M4 entering = (d0 > zero) & (ratio == ratio);
+  const M4 leaving = ~(d0 > zero) & (d1 > zero) & (ratio == ratio);
+  const V4 in = entering ? ratio : zero, out4 = leaving ? ratio : splat(1.0);
+  const double lambda_in = std::max(std::max(in[0], in[1]), std::max(in[2], in[3]));
+  const double lambda_out = std::min(std::min(out4[0], out4[1]), std::min(out4[2], out4[3]));
+  if (!((lambda_out - lambda_in) * length > tol)) return out;
+  out.hit = true;
+  out.lambda_in = lambda_in;
+  out.lambda_out = lambda_out;
+  return out;
+}
+
 }  // namespace
 
 TetGeometry make_tet_geometry(const TetCorners& t) {
   TetGeometry g;
+  make_tet_geometry(t, g);
+  return g;
+}
+
+void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
   g.v = t;
   g.lo = g.hi = t[0];
   for (int i = 1; i < 4; ++i) {
@@ -235,6 +471,20 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
   for (int k = 0; k < 6; ++k) {
     const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
     g.arc[k] = (g.n[p] * g.n_inv[p]).cross(g.n[q] * g.n_inv[q]);
+    g.ax[k] = g.arc[k].x(), g.ay[k] = g.arc[k].y(), g.az[k] = g.arc[k].z();
+  }
+  g.ax[6] = g.ax[7] = g.ay[6] = g.ay[7] = g.az[6] = g.az[7] = 0.0;
+  // By coordinate, with the expressions Sat uses (a_[i] = v[i] - v[0], ua = n * n_inv,
+  // dot3), so the vectorised test sees the same bits.
+  TetCorners local;
+  for (int i = 0; i < 4; ++i) local[i] = t[i] - t[0];
+  for (int k = 0; k < 4; ++k) {
+    const Vector3d u = g.n[k] * g.n_inv[k];
+    g.nx[k] = g.n[k].x(), g.ny[k] = g.n[k].y(), g.nz[k] = g.n[k].z();
+    g.ux[k] = u.x(), g.uy[k] = u.y(), g.uz[k] = u.z();
+    g.lx[k] = local[k].x(), g.ly[k] = local[k].y(), g.lz[k] = local[k].z();
+    g.plane[k] = dot3(g.n[k], local[kTetFaces[k][0]]);
+    g.apex[k] = dot3(g.n[k], local[k]);
   }
   if (!(t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite())) {
     // An empty box: separated from everything on the first axis.
@@ -243,7 +493,6 @@ TetGeometry make_tet_geometry(const TetCorners& t) {
     g.scale = 0.0;
     g.flat = true;
   }
-  return g;
 }
 
 double tet_scale(const TetCorners& t) {
@@ -271,9 +520,19 @@ double sat_penetration(const TetCorners& a, const TetCorners& b) {
   return sat.best();
 }
 
-bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) {
+bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double tolerance) {
   Sat<true> sat(a, b, std::max(tolerance, 0.0));
   return sat.run();
+}
+
+// One copy for AVX2 and one for the x86-64 baseline, picked at load time; both give the
+// same bits (the same IEEE operations per lane, no FMA: "avx2" does not enable it).
+__attribute__((target_clones("avx2", "default"))) bool tets_overlap(const TetGeometry& a,
+                                                                    const TetGeometry& b,
+                                                                    double tolerance) {
+  // Flat (or non-finite) tets take the reference's every-edge-pair path.
+  if (a.flat || b.flat) return tets_overlap_reference(a, b, tolerance);
+  return FastSat(a, b, std::max(tolerance, 0.0)).run();
 }
 
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance) {
@@ -302,8 +561,8 @@ PointInTet point_in_tet(const Eigen::Vector3d& p, const TetCorners& t, double to
   return point_in_tet(p, make_tet_geometry(t), tolerance);
 }
 
-SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
-                             const TetGeometry& t, double tolerance) {
+SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                       const TetGeometry& t, double tolerance) {
   SegmentClip out;
   const double tol = std::max(tolerance, 0.0);
   const double length = (p1 - p0).norm();
@@ -328,6 +587,11 @@ SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p
   out.lambda_in = lambda_in;
   out.lambda_out = lambda_out;
   return out;
+}
+
+__attribute__((target_clones("avx2", "default"))) SegmentClip clip_segment_tet(
+    const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const TetGeometry& t, double tolerance) {
+  return clip_lanes(p0, p1, t, tolerance);
 }
 
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,

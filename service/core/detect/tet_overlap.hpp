@@ -32,18 +32,29 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
 /// A tet with the derived geometry the tests below use, computed once per tet and frame
 /// so that a tet tested against many others does not redo it.
 struct TetGeometry {
-  // Ordered by use: the box first (every pre-test), then what the point and segment
-  // tests read, then what only the overlap test reads.
-  Eigen::Vector3d lo, hi;            ///< bounding box
-  double scale = 0.0;                ///< largest box extent
+  // Ordered by use, so that what a test reads is contiguous: the box (every pre-test);
+  // what the face-plane tests read (lengths, normals by coordinate, inverses, corners);
+  // the rest of the vectorised overlap test; what only the reference walk and
+  // point_in_tet read. Arrays "by coordinate" (x, y, z apart; index = face k, corner i or
+  // edge j) feed the vector lanes of tets_overlap() and clip_segment_tet(); their values
+  // are bit for bit those the reference functions compute from the per-vector fields.
+  Eigen::Vector3d lo, hi;            ///< bounding box, m
+  double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
-  std::array<double, 4> n_inv;       ///< 1 / |n| (0 when |n| = 0)
-  std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
-                                     ///< outward unless flat
+  std::array<double, 4> n_len;       ///< |n|, m^2
+  std::array<double, 4> nx, ny, nz;  ///< n[k] by coordinate, m^2
+  std::array<double, 4> n_inv;       ///< 1 / |n| (0 when |n| = 0), 1/m^2
   TetCorners v;                      ///< corners, metres
-  std::array<double, 4> n_len;       ///< |n|
-  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order
-  std::array<double, 6> e2;          ///< squared edge lengths
+  std::array<double, 4> lx, ly, lz;  ///< corners relative to the first: v[i] - v[0], m
+  /// n[k] . (v[kTetFaces[k][0]] - v[0]) and n[k] . (v[k] - v[0]): where face k's plane and
+  /// the opposite corner project on n[k], in coordinates relative to v[0], m^3.
+  std::array<double, 4> plane, apex;
+  std::array<double, 4> ux, uy, uz;  ///< unit normals n[k] * n_inv[k] by coordinate
+  std::array<double, 8> ax, ay, az;  ///< arc[j] by coordinate for j < 6; entries 6, 7 are 0
+  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order, m
+  std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
+                                     ///< outward unless flat, m^2
+  std::array<double, 6> e2;          ///< squared edge lengths, m^2
   /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
   /// the other), kTetEdges order; unused when flat.
   std::array<Eigen::Vector3d, 6> arc;
@@ -51,6 +62,8 @@ struct TetGeometry {
 
 /// Derived geometry of a tet given by its corners.
 TetGeometry make_tet_geometry(const TetCorners& t);
+/// The same, written into `g` (every field), so that an array of them is filled in place.
+void make_tet_geometry(const TetCorners& t, TetGeometry& g);
 
 /// Largest extent of the bounding box of the corners of `a` and `b` (metres): the length
 /// scale the tolerance of a tet pair is relative to.
@@ -77,8 +90,16 @@ double sat_penetration(const TetCorners& a, const TetCorners& b);
 /// one tet deeper than `tolerance` inside the other). Shared faces, coplanar faces on
 /// opposite sides, and touching vertices or edges are not overlaps. A zero-volume tet
 /// lying inside the other one is an overlap (it has to move to get out).
+///
+/// Computed 4 axes at a time (face normals, Gauss-map arc tests, corner projections),
+/// with the same floating-point operations per axis as tets_overlap_reference(), so the
+/// answer is that function's bit for bit; pairs with a flat tet go to the reference.
 bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance);
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance);
+
+/// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
+/// order documented there); kept for flat tets and as the reference in tests.
+bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double tolerance);
 
 /// Result of point_in_tet().
 struct PointInTet {
@@ -112,5 +133,10 @@ SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p
                              const TetGeometry& t, double tolerance);
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                              const TetCorners& t, double tolerance);
+
+/// clip_segment_tet() one face after the other (the 4 faces are lanes of one vector in
+/// clip_segment_tet(), with the same result bit for bit); the reference in tests.
+SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                       const TetGeometry& t, double tolerance);
 
 }  // namespace tc
