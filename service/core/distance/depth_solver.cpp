@@ -55,6 +55,10 @@ constexpr int kMaxLocalRounds = 6;
 /// costs less (a region node costs about twice a whole run's node; bench_distance
 /// lazy/large/cpfm/bottom_10pct: 12.4 ms for a 51% region, 11.6 ms whole).
 constexpr std::size_t kWholeFraction = 3;
+/// A region has at least this many nodes per marked node (measured: 5.4 on the pawn's
+/// press, 4.6-8 on the slab tests), so more marked nodes than 1/(3 x 4) of the nodes go
+/// straight to the whole run.
+constexpr std::size_t kRegionPerMarked = 4;
 /// Most grid cells a local run's region may use (its cells grow beyond this).
 constexpr std::size_t kMaxRegionCells = std::size_t{1} << 18;
 /// How many nodes ahead the region's flood prefetches (measured on the pawn).
@@ -953,9 +957,13 @@ struct BasicDepthSolver<D>::Impl {
     // (contact moves little from frame to frame); the certificate below decides anyway.
     side = std::max(side * kLocalStartFactor, kLocalRepeatFactor * last_deepest);
     lazy_stats = {};
-    local_run = side > 0.0 && std::isfinite(side);
+    // A region holds the marked nodes and a ring of cells at least two elements wide
+    // around them: several times as many nodes. Where that alone passes the limit below,
+    // the flood would be wasted.
+    const std::size_t limit = static_cast<std::size_t>(num_used) / kWholeFraction;
+    local_run = side > 0.0 && std::isfinite(side) && marked.size() * kRegionPerMarked <= limit;
     for (int round = 0; local_run && round < kMaxLocalRounds; ++round) {
-      const bool small = build_region(side, static_cast<std::size_t>(num_used) / kWholeFraction);
+      const bool small = build_region(side, limit);
       if (bad_node >= 0) return non_finite(bad_node);
       if (!small) break;
       ++lazy_stats.rounds;
