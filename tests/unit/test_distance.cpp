@@ -381,20 +381,14 @@ std::vector<Index> tets_near(const TetMesh& m, const Vector3d& centre, double r)
   return out;
 }
 
-struct LocalCase {
-  DepthMethod method;
-  CffmVariant cffm;
-  QueueKind queue;
-};
-
-class DepthLazyLocal : public ::testing::TestWithParam<LocalCase> {};
+class DepthLazyLocal : public ::testing::TestWithParam<LazyCase> {};
 
 // Every depth a local run gives is a true boundary distance (>= exact), the region
 // holds the ball of radius depth around every marked node (cell side >= depth), only a
 // few per cent of the nodes are settled for a shallow press, and the marked nodes'
 // depths are those of the whole-boundary run (within 2% where they differ at all).
 TEST_P(DepthLazyLocal, ShallowPressSettlesFewNodesWithTheWholeRunsDepths) {
-  const LocalCase p = GetParam();
+  const LazyCase p = GetParam();
   const int n = 32;  // the same mesh under the sanitizers: the 5% bound depends on it
   TetMesh m = test::structured_box(n, n, n / 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25));
   shuffle_nodes(m, 3);
@@ -458,12 +452,12 @@ TEST_P(DepthLazyLocal, ShallowPressSettlesFewNodesWithTheWholeRunsDepths) {
 
 INSTANTIATE_TEST_SUITE_P(
     Methods, DepthLazyLocal,
-    ::testing::Values(LocalCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kBucket},
-                      LocalCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kRadix},
-                      LocalCase{DepthMethod::kCffm, CffmVariant::kDescent, QueueKind::kBucket},
-                      LocalCase{DepthMethod::kCffm, CffmVariant::kPaper, QueueKind::kBinaryHeap},
-                      LocalCase{DepthMethod::kCffm, CffmVariant::kNearStarts, QueueKind::kBucket},
-                      LocalCase{DepthMethod::kCffm, CffmVariant::kMultiStart, QueueKind::kRadix}));
+    ::testing::Values(LazyCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCpfm, CffmVariant::kDescent, QueueKind::kRadix},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kDescent, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kPaper, QueueKind::kBinaryHeap},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kNearStarts, QueueKind::kBucket},
+                      LazyCase{DepthMethod::kCffm, CffmVariant::kMultiStart, QueueKind::kRadix}));
 
 // A region that cannot certify its depths grows; a contact spanning the object ends in
 // the whole run, whose values are the whole-boundary run's bit for bit; the next small
