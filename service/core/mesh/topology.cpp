@@ -1,13 +1,10 @@
 #include "core/mesh/topology.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
 
+#include "core/common/parallel_chunks.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -171,24 +168,6 @@ Topology build_topology_reference(std::span<const Tet> tets, Index num_nodes) {
 
 namespace {
 
-/// Calls body(begin, end) for fixed chunks of [0, n) in parallel. Each index is written
-/// by exactly one chunk, so the result does not depend on the thread count.
-template <typename Body>
-void for_chunks(std::size_t n, std::size_t chunk, const Body& body) {
-  const std::size_t chunks = (n + chunk - 1) / chunk;
-  if (chunks <= 1) {
-    if (n > 0) body(std::size_t{0}, n);
-    return;
-  }
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, chunks, 1),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c)
-          body(c * chunk, std::min(n, (c + 1) * chunk));
-      },
-      tbb::simple_partitioner());
-}
-
 /// The fast path needs tets of 4 distinct nodes in [0, n) (no self-shared faces or
 /// degenerate edges), face keys packed in 64 bits (n^3 < 2^63) and 4m < 2^32.
 bool fast_path_applies(std::span<const Tet> tets, Index num_nodes) {
@@ -263,7 +242,7 @@ Topology build_topology_fast(std::span<const Tet> tets, Index num_nodes) {
   std::vector<std::uint64_t> keys(4 * m);
   std::vector<std::uint32_t> owner(4 * m);  // 4 tet + local
   const auto nn = static_cast<std::uint64_t>(n);
-  for_chunks(m, kChunk, [&](std::size_t begin, std::size_t end) {
+  detail::for_chunks(m, kChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t t = begin; t < end; ++t)
       for (int j = 0; j < 4; ++j) {
         const auto& f = kTetFaces[j];
@@ -307,7 +286,7 @@ Topology build_topology_fast(std::span<const Tet> tets, Index num_nodes) {
   // is written into its own slice of a scratch array sized by 3 x (tets of the node).
   std::vector<Index> scratch(3 * 4 * m);
   std::vector<Index> count(n, 0);
-  for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end) {
+  detail::for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t v = begin; v < end; ++v) {
       Index* row = scratch.data() + 3 * static_cast<std::size_t>(node_tets.offsets[v]);
       Index k = 0;
@@ -331,7 +310,7 @@ Topology build_topology_fast(std::span<const Tet> tets, Index num_nodes) {
   }
   adjacency.indices.resize(static_cast<std::size_t>(adjacency.offsets[n]));
   topo.edges.resize(static_cast<std::size_t>(edge_offsets[n]));
-  for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end) {
+  detail::for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t v = begin; v < end; ++v) {
       const Index* row = scratch.data() + 3 * static_cast<std::size_t>(node_tets.offsets[v]);
       std::copy(row, row + count[v], adjacency.indices.begin() + adjacency.offsets[v]);

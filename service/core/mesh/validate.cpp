@@ -1,12 +1,10 @@
 #include "core/mesh/validate.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
+#include "core/common/parallel_chunks.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -36,25 +34,24 @@ void merge(DefectList& into, const DefectList& part, std::size_t max_listed) {
 /// depend on the thread count). `skip` (empty, or one flag per tet) leaves tets out.
 void check_shapes(const Positions& p, const std::vector<Tet>& tets, const ValidationOptions& opt,
                   const std::vector<std::uint8_t>& skip, ValidationReport& report) {
-  const std::size_t chunks = (tets.size() + kShapeChunk - 1) / kShapeChunk;
-  std::vector<ValidationReport> parts(chunks);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    ValidationReport& part = parts[c];
-    const std::size_t end = std::min(tets.size(), (c + 1) * kShapeChunk);
-    for (std::size_t t = c * kShapeChunk; t < end; ++t) {
-      if (!skip.empty() && skip[t]) continue;
-      const double q = tet_quality(p, tets[t]);
-      const auto ti = static_cast<Index>(t);
-      if (q < part.min_quality) part.min_quality = q;
-      if (std::abs(q) < opt.degenerate_quality) {
-        part.degenerate.add(ti, opt.max_listed);
-      } else if (q < 0.0) {
-        part.inverted.add(ti, opt.max_listed);
-      } else if (q < opt.sliver_quality) {
-        part.sliver.add(ti, opt.max_listed);
-      }
-    }
-  });
+  std::vector<ValidationReport> parts(detail::num_chunks(tets.size(), kShapeChunk));
+  detail::for_chunks(tets.size(), kShapeChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t c) {
+                       ValidationReport& part = parts[c];
+                       for (std::size_t t = begin; t < end; ++t) {
+                         if (!skip.empty() && skip[t]) continue;
+                         const double q = tet_quality(p, tets[t]);
+                         const auto ti = static_cast<Index>(t);
+                         if (q < part.min_quality) part.min_quality = q;
+                         if (std::abs(q) < opt.degenerate_quality) {
+                           part.degenerate.add(ti, opt.max_listed);
+                         } else if (q < 0.0) {
+                           part.inverted.add(ti, opt.max_listed);
+                         } else if (q < opt.sliver_quality) {
+                           part.sliver.add(ti, opt.max_listed);
+                         }
+                       }
+                     });
   for (const ValidationReport& part : parts) {
     report.min_quality = std::min(report.min_quality, part.min_quality);
     merge(report.degenerate, part.degenerate, opt.max_listed);
