@@ -2,14 +2,23 @@
 // format and from TetGen text, and writing it as .vtu. Baselines in the same run: a
 // memchr pass over the 2.2 text (a floor: touch every byte once) and the same text
 // parsed token by token with std::istringstream (the approach the readers avoid).
+// The per-frame state check of the same box (validate_positions: finite coordinates,
+// degenerate and inverted tets), its nodes in mesher order and shuffled, against the
+// floor issue 13 sets for work outside the contact: reading the positions once.
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
+#include <random>
 #include <sstream>
 #include <string>
 
 #include "core/io/mesh_io.hpp"
+#include "core/mesh/validate.hpp"
 #include "test_meshes.hpp"
 
 namespace {
@@ -111,8 +120,80 @@ void BM_Baseline_Istream22(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * data.size()));
 }
 
+/// The box with its nodes renumbered at random: the worst memory order a mesher could give.
+const tc::TetMesh& shuffled_box() {
+  static const tc::TetMesh mesh = [] {
+    const tc::TetMesh& b = box();
+    std::vector<tc::Index> perm(static_cast<std::size_t>(b.num_nodes()));
+    std::iota(perm.begin(), perm.end(), tc::Index{0});
+    std::shuffle(perm.begin(), perm.end(), std::mt19937(7));
+    tc::TetMesh m = b;
+    for (tc::Index i = 0; i < b.num_nodes(); ++i)
+      m.positions.col(perm[static_cast<std::size_t>(i)]) = b.positions.col(i);
+    for (tc::Tet& t : m.tets)
+      for (tc::Index& v : t) v = perm[static_cast<std::size_t>(v)];
+    return m;
+  }();
+  return mesh;
+}
+
+/// state.range(0): threads.
+void validate(benchmark::State& state, const tc::TetMesh& mesh, bool min_quality) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  tc::ValidationOptions options;
+  options.compute_min_quality = min_quality;
+  for (auto _ : state) {
+    const tc::ValidationReport r = tc::validate_positions(mesh.positions, mesh.tets, options);
+    if (!r.clean()) state.SkipWithError("the box is not clean");
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["tets"] = static_cast<double>(mesh.num_tets());
+}
+
+/// The per-frame check as the pipeline runs it (no smallest quality).
+void BM_ValidatePositions(benchmark::State& state) {
+  validate(state, box(), false);
+}
+void BM_ValidatePositionsShuffled(benchmark::State& state) {
+  validate(state, shuffled_box(), false);
+}
+/// The same with the smallest quality (what `mesh info` reports): every tet's exact quality.
+void BM_ValidatePositionsMinQuality(benchmark::State& state) {
+  validate(state, box(), true);
+}
+
+/// Floor: every coordinate read once (finite check and sum), one thread.
+void BM_Baseline_ReadPositionsOnce(benchmark::State& state) {
+  const tc::Positions& p = box().positions;
+  for (auto _ : state) {
+    double sum = 0.0;
+    bool finite = true;
+    const double* x = p.data();
+    for (Eigen::Index i = 0; i < p.size(); ++i) {
+      finite = finite && std::isfinite(x[i]);
+      sum += x[i];
+    }
+    benchmark::DoNotOptimize(sum);
+    benchmark::DoNotOptimize(finite);
+  }
+  state.counters["nodes"] = static_cast<double>(p.cols());
+}
+
 }  // namespace
 
+BENCHMARK(BM_Baseline_ReadPositionsOnce)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ValidatePositions)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ValidatePositionsShuffled)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_ValidatePositionsMinQuality)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_Baseline_CountLines22)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Baseline_Istream22)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ReadGmsh22Ascii)->Unit(benchmark::kMillisecond);

@@ -8,9 +8,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
+#include <stdexcept>
 
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/spatial_order.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -154,6 +157,134 @@ TEST(Validate, ParallelChunksReportLikeASerialScan) {
     EXPECT_EQ(r.degenerate.count, 0u);
     EXPECT_EQ(r.min_quality, min_q);
   }
+}
+
+// The per-frame check without the smallest quality (compute_min_quality = false) skips
+// tet_quality() for tets that are surely not slivers; it must find the same defects. Loose
+// tets, randomly placed, scaled and oriented, with qualities just around every threshold
+// (within the fast test's margin and outside it), well-shaped ones, and a multiple of the
+// lane width plus a remainder.
+TEST(Validate, WithoutTheSmallestQualityTheDefectsAreTheSame) {
+  const ValidationOptions exact_opt = [] {
+    ValidationOptions o;
+    o.max_listed = 100000;
+    return o;
+  }();
+  ValidationOptions fast_opt = exact_opt;
+  fast_opt.compute_min_quality = false;
+  const double s = exact_opt.sliver_quality, d = exact_opt.degenerate_quality;
+  std::vector<double> targets = {0.5, 0.9, 0.02, -0.3, -s, -d * 2, 0.0};
+  for (const double rel : {1e-13, 1e-10, 1e-7, 4e-6, 6e-6, 1e-4})
+    for (const double t : {s, d, -d})
+      for (const double sign : {-1.0, 1.0}) targets.push_back(t * (1.0 + sign * rel));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  TetMesh m;
+  std::vector<Eigen::Vector3d> nodes;
+  for (int copy = 0; copy < 9; ++copy)
+    for (const double target : targets) {
+      // A right-angled base in the xy plane and an apex above (0.3, 0.3): quality grows
+      // with the height h on [0, 0.05] (a tenth of the maximum's height); bisect for
+      // |target| there, then flip the apex below the base for a negative target.
+      const auto quality = [](double h) {
+        Positions p(3, 4);
+        p << 0, 1, 0, 0.3, 0, 0, 1, 0.3, 0, 0, 0, h;
+        return tet_quality(p, Tet{0, 1, 2, 3});
+      };
+      double lo = 0.0, hi = 0.05;
+      const double goal = std::abs(target);
+      for (int it = 0; it < 200 && std::abs(target) < 0.05; ++it)
+        (quality(0.5 * (lo + hi)) < goal ? lo : hi) = 0.5 * (lo + hi);
+      double h = std::abs(target) < 0.05 ? 0.5 * (lo + hi) : 0.5 + 2.0 * std::abs(target);
+      if (target < 0.0) h = -h;
+      const Eigen::Matrix3d rot =
+          Eigen::AngleAxisd(3.0 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized())
+              .toRotationMatrix();
+      const double scale = std::pow(10.0, 3.0 * u(rng));
+      const Eigen::Vector3d offset(1e3 * u(rng), 1e3 * u(rng), 1e3 * u(rng));
+      const Eigen::Vector3d base[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, h}};
+      const auto first = static_cast<Index>(nodes.size());
+      for (const auto& x : base) nodes.push_back(offset + scale * (rot * x));
+      m.tets.push_back({first, first + 1, first + 2, first + 3});
+    }
+  m.positions.resize(3, static_cast<Index>(nodes.size()));
+  for (std::size_t i = 0; i < nodes.size(); ++i) m.positions.col(static_cast<Index>(i)) = nodes[i];
+  ASSERT_GT(m.tets.size() % 8, 0u);
+
+  const ValidationReport exact = validate_positions(m.positions, m.tets, exact_opt);
+  EXPECT_GT(exact.sliver.count, 0u);
+  EXPECT_GT(exact.degenerate.count, 0u);
+  EXPECT_GT(exact.inverted.count, 0u);
+  EXPECT_LT(exact.sliver.count + exact.degenerate.count + exact.inverted.count, m.tets.size());
+  for (const int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const ValidationReport fast = validate_positions(m.positions, m.tets, fast_opt);
+    EXPECT_EQ(fast.degenerate.first, exact.degenerate.first);
+    EXPECT_EQ(fast.inverted.first, exact.inverted.first);
+    EXPECT_EQ(fast.sliver.first, exact.sliver.first);
+    EXPECT_EQ(fast.degenerate.count, exact.degenerate.count);
+    EXPECT_EQ(fast.inverted.count, exact.inverted.count);
+    EXPECT_EQ(fast.sliver.count, exact.sliver.count);
+    EXPECT_TRUE(std::isnan(fast.min_quality));
+  }
+}
+
+// The per-frame check visits the tets in a spatial order (tets_in_morton_order); the
+// report must be that of index order for any order: counts, the smallest indices listed,
+// the smallest quality; with and without the smallest quality, on 1 and 2 threads.
+TEST(Validate, AnyCheckOrderGivesTheSameReport) {
+  TetMesh m = test::structured_box(24, 24, 12, {0, 0, 0}, {1, 1, 0.5});
+  std::mt19937 rng(29);
+  for (int k = 0; k < 600; ++k) {  // tens per chunk of 8192 tets: more than max_listed
+    Tet& t = m.tets[rng() % m.tets.size()];
+    if (k % 3 == 0) {
+      std::swap(t[0], t[1]);  // inverted
+    } else {
+      // Flattened: a fresh node on the plane of the other three (degenerate), or near it.
+      const Index apex = m.num_nodes();
+      m.positions.conservativeResize(3, apex + 1);
+      m.positions.col(apex) =
+          (m.positions.col(t[0]) + m.positions.col(t[1]) + m.positions.col(t[2])) / 3.0 +
+          (k % 3 == 1 ? 0.0 : 1e-3) * (m.positions.col(t[3]) - m.positions.col(t[0]));
+      t[3] = apex;
+    }
+  }
+  for (const std::size_t listed : {std::size_t{8}, std::size_t{1000}}) {
+    ValidationOptions exact_opt;
+    exact_opt.max_listed = listed;
+    ValidationOptions fast_opt = exact_opt;
+    fast_opt.compute_min_quality = false;
+    for (const ValidationOptions& opt : {exact_opt, fast_opt}) {
+      const ValidationReport ref = validate_positions(m.positions, m.tets, opt);
+      ASSERT_GT(ref.inverted.count, 100u);
+      ASSERT_GT(ref.degenerate.count, 100u);
+      ASSERT_GT(ref.sliver.count, 100u);
+      std::vector<Index> shuffled(m.tets.size());
+      std::iota(shuffled.begin(), shuffled.end(), Index{0});
+      std::shuffle(shuffled.begin(), shuffled.end(), rng);
+      std::vector<Index> reversed(shuffled.size());
+      std::iota(reversed.rbegin(), reversed.rend(), Index{0});
+      for (const std::vector<Index>& order :
+           {tets_in_morton_order(m.positions, m.tets), shuffled, reversed})
+        for (const int threads : {1, 2}) {
+          tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+          const ValidationReport r = validate_positions(m.positions, m.tets, opt, order);
+          EXPECT_EQ(r.inverted.count, ref.inverted.count);
+          EXPECT_EQ(r.degenerate.count, ref.degenerate.count);
+          EXPECT_EQ(r.sliver.count, ref.sliver.count);
+          EXPECT_EQ(r.inverted.first, ref.inverted.first);
+          EXPECT_EQ(r.degenerate.first, ref.degenerate.first);
+          EXPECT_EQ(r.sliver.first, ref.sliver.first);
+          if (opt.compute_min_quality) {
+            EXPECT_EQ(r.min_quality, ref.min_quality);
+          } else {
+            EXPECT_TRUE(std::isnan(r.min_quality));
+          }
+        }
+    }
+  }
+  const std::vector<Index> short_order(m.tets.size() - 1, 0);
+  EXPECT_THROW(validate_positions(m.positions, m.tets, {}, short_order), std::invalid_argument);
 }
 
 TEST(Validate, AllNodesCoincidentIsDegenerate) {

@@ -11,6 +11,7 @@
 
 #include "core/detect/chunked.hpp"
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/spatial_order.hpp"
 
 namespace tc {
 namespace {
@@ -129,41 +130,14 @@ namespace {
 /// clusters, large enough that refitting them costs little next to reading the nodes.
 constexpr std::size_t kClusterTets = 64;
 
-/// The low 21 bits of v spread to every third bit.
-std::uint64_t spread_bits(std::uint64_t v) {
-  v &= 0x1fffffULL;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
 }  // namespace
 
 void CollisionBody::build_clusters(const Positions& positions) {
   const Eigen::Vector3d lo = box_.empty() ? Eigen::Vector3d::Zero() : box_.lo;
   const double extent = box_.empty() ? 0.0 : (box_.hi - box_.lo).maxCoeff();
-  constexpr double kTop = double((1 << 21) - 1);
-  const double to_grid = extent > 0.0 ? kTop / extent : 0.0;
-  // (Morton code of the centroid, tet): tets with a non-finite corner last; ties by tet
-  // index, so the clusters depend on the positions only.
+  // Tets along a Morton curve of their centroids, cut into runs of kClusterTets.
+  const std::vector<Index> order = tets_in_morton_order(positions, tets_, lo, extent);
   const std::size_t m = tets_.size();
-  std::vector<std::pair<std::uint64_t, Index>> keys(m);
-  for (std::size_t t = 0; t < m; ++t) {
-    const TetCorners c = tet_corners(positions, tets_[t]);
-    const Eigen::Vector3d p = 0.25 * (c[0] + c[1] + c[2] + c[3]);
-    std::uint64_t code = ~std::uint64_t{0};
-    if (p.allFinite()) {
-      const Eigen::Vector3d q = ((p - lo) * to_grid).cwiseMax(0.0).cwiseMin(kTop);
-      code = spread_bits(static_cast<std::uint64_t>(q.x())) |
-             spread_bits(static_cast<std::uint64_t>(q.y())) << 1 |
-             spread_bits(static_cast<std::uint64_t>(q.z())) << 2;
-    }
-    keys[t] = {code, static_cast<Index>(t)};
-  }
-  std::sort(keys.begin(), keys.end());
   const std::size_t clusters = (m + kClusterTets - 1) / kClusterTets;
   cluster_tets_.offsets.assign(1, 0);
   cluster_tets_.indices.clear();
@@ -173,7 +147,7 @@ void CollisionBody::build_clusters(const Positions& positions) {
   for (std::size_t c = 0; c < clusters; ++c) {
     const std::size_t begin = c * kClusterTets, end = std::min(m, begin + kClusterTets);
     row.clear();
-    for (std::size_t k = begin; k < end; ++k) row.push_back(keys[k].second);
+    for (std::size_t k = begin; k < end; ++k) row.push_back(order[k]);
     std::sort(row.begin(), row.end());
     cluster_tets_.indices.insert(cluster_tets_.indices.end(), row.begin(), row.end());
     cluster_tets_.offsets.push_back(static_cast<Index>(cluster_tets_.indices.size()));

@@ -1,6 +1,7 @@
 // Mesh validation: what is wrong, how often, and where first.
 #pragma once
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,10 @@ struct ValidationOptions {
   double sliver_quality = 1e-2;
   /// How many offending indices each list keeps.
   std::size_t max_listed = 8;
+  /// false: ValidationReport::min_quality is not computed (it is NaN), and the tets that
+  /// are surely not slivers skip the square root and the division of tet_quality(). The
+  /// defect lists are the same either way. The per-frame check of the pipeline sets it.
+  bool compute_min_quality = true;
 };
 
 /// One class of defect: how many, and the first few indices (tets or nodes).
@@ -37,7 +42,9 @@ struct ValidationReport {
   DefectList degenerate;          ///< tets with |quality| < degenerate_quality
   DefectList inverted;            ///< tets with quality <= -degenerate_quality
   DefectList sliver;              ///< tets with quality in [degenerate, sliver)
-  double min_quality = 1.0;       ///< over the tets with valid indices and coordinates
+  /// Over the tets with valid indices and coordinates; NaN when
+  /// ValidationOptions::compute_min_quality is false.
+  double min_quality = 1.0;
 
   /// True when the mesh cannot be used at all (bad indices, repeated nodes, NaN).
   [[nodiscard]] bool structurally_invalid() const {
@@ -55,9 +62,13 @@ struct ValidationReport {
 ValidationReport validate_mesh(const TetMesh& mesh, const ValidationOptions& options = {});
 
 /// Checks only what the positions decide (finite coordinates, degenerate and inverted
-/// tets) for a mesh whose indices are known good: the per-frame check.
+/// tets) for a mesh whose indices are known good: the per-frame check. `order`: every tet
+/// index once, the order to check them in (tets_in_morton_order() reads the positions with
+/// fewer cache misses than a mesher's order), or empty for index order; the report is the
+/// same for every order. Throws std::invalid_argument when `order` has the wrong size.
 ValidationReport validate_positions(const Positions& positions, const std::vector<Tet>& tets,
-                                    const ValidationOptions& options = {});
+                                    const ValidationOptions& options = {},
+                                    std::span<const Index> order = {});
 
 /// Error (kInvalidMesh) naming the first defect when the report is not clean, with
 /// `what` (a file or object name) as the message prefix; ok otherwise. Slivers pass.

