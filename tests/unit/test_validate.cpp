@@ -13,7 +13,6 @@
 #include <stdexcept>
 
 #include "core/mesh/geometry.hpp"
-#include "core/mesh/spatial_order.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -229,7 +228,7 @@ TEST(Validate, WithoutTheSmallestQualityTheDefectsAreTheSame) {
   }
 }
 
-// The per-frame check visits the tets in a spatial order (tets_in_morton_order); the
+// The per-frame check visits the tets in a spatial order (make_tet_check_order); the
 // report must be that of index order for any order: counts, the smallest indices listed,
 // the smallest quality; with and without the smallest quality, on 1 and 2 threads.
 TEST(Validate, AnyCheckOrderGivesTheSameReport) {
@@ -264,11 +263,15 @@ TEST(Validate, AnyCheckOrderGivesTheSameReport) {
       std::shuffle(shuffled.begin(), shuffled.end(), rng);
       std::vector<Index> reversed(shuffled.size());
       std::iota(reversed.rbegin(), reversed.rend(), Index{0});
-      for (const std::vector<Index>& order :
-           {tets_in_morton_order(m.positions, m.tets), shuffled, reversed})
+      TetCheckOrder morton = make_tet_check_order(m.positions, m.tets);
+      ASSERT_EQ(morton.index.size(), m.tets.size());
+      for (const std::vector<Index>& order : {morton.index, shuffled, reversed})
         for (const int threads : {1, 2}) {
           tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-          const ValidationReport r = validate_positions(m.positions, m.tets, opt, order);
+          TetCheckOrder check;
+          check.index = order;
+          for (const Index t : order) check.tets.push_back(m.tets[static_cast<std::size_t>(t)]);
+          const ValidationReport r = validate_positions(m.positions, check, opt);
           EXPECT_EQ(r.inverted.count, ref.inverted.count);
           EXPECT_EQ(r.degenerate.count, ref.degenerate.count);
           EXPECT_EQ(r.sliver.count, ref.sliver.count);
@@ -283,8 +286,9 @@ TEST(Validate, AnyCheckOrderGivesTheSameReport) {
         }
     }
   }
-  const std::vector<Index> short_order(m.tets.size() - 1, 0);
-  EXPECT_THROW(validate_positions(m.positions, m.tets, {}, short_order), std::invalid_argument);
+  TetCheckOrder bad = make_tet_check_order(m.positions, m.tets);
+  bad.index.pop_back();
+  EXPECT_THROW(validate_positions(m.positions, bad), std::invalid_argument);
 }
 
 TEST(Validate, AllNodesCoincidentIsDegenerate) {

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 
 #include "core/common/parallel_chunks.hpp"
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/spatial_order.hpp"
 
 namespace tc {
 namespace {
@@ -110,11 +112,11 @@ void merge(DefectList& into, const DefectList& part, std::size_t max_listed) {
   if (into.first.size() > max_listed) into.first.resize(max_listed);
 }
 
-/// Shapes of the tets, in parallel chunks of `order` (empty: index order) merged in chunk
-/// order; the report depends neither on the thread count nor on the order. `skip` (empty,
-/// or one flag per tet) leaves tets out.
-void check_shapes(const Positions& p, const std::vector<Tet>& tets, const ValidationOptions& opt,
-                  const std::vector<std::uint8_t>& skip, std::span<const Index> order,
+/// Shapes of the tets, in parallel chunks merged in chunk order; tets[k] is the mesh's tet
+/// index[k] (`index` empty: k). The report depends neither on the thread count nor on the
+/// order of `tets`. `skip` (empty, or one flag per entry of `tets`) leaves tets out.
+void check_shapes(const Positions& p, std::span<const Tet> tets, const ValidationOptions& opt,
+                  const std::vector<std::uint8_t>& skip, std::span<const Index> index,
                   ValidationReport& report) {
   std::vector<ValidationReport> parts(detail::num_chunks(tets.size(), kShapeChunk));
   const bool fast = !opt.compute_min_quality;
@@ -123,9 +125,9 @@ void check_shapes(const Positions& p, const std::vector<Tet>& tets, const Valida
   detail::for_chunks(
       tets.size(), kShapeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
         ValidationReport& part = parts[c];
-        const auto exact = [&](std::size_t t) {
-          const double q = tet_quality(p, tets[t]);
-          const auto ti = static_cast<Index>(t);
+        const auto exact = [&](std::size_t k) {
+          const double q = tet_quality(p, tets[k]);
+          const Index ti = index.empty() ? static_cast<Index>(k) : index[k];
           if (q < part.min_quality) part.min_quality = q;
           if (std::abs(q) < opt.degenerate_quality) {
             add_smallest(part.degenerate, ti, opt.max_listed);
@@ -135,25 +137,17 @@ void check_shapes(const Positions& p, const std::vector<Tet>& tets, const Valida
             add_smallest(part.sliver, ti, opt.max_listed);
           }
         };
-        const auto tet_at = [&](std::size_t k) {
-          return order.empty() ? k : static_cast<std::size_t>(order[k]);
-        };
         std::size_t k = begin;
         if (fast && skip.empty()) {
-          Tet lane[kLanes];
           for (; k + kLanes <= end; k += kLanes) {
-            for (int l = 0; l < kLanes; ++l)
-              lane[l] = tets[tet_at(k + static_cast<std::size_t>(l))];
-            const unsigned good = detail::surely_not_slivers(p.data(), lane, s2_margin);
+            const unsigned good = detail::surely_not_slivers(p.data(), tets.data() + k, s2_margin);
             if (good == (1u << kLanes) - 1) continue;
             for (int l = 0; l < kLanes; ++l)
-              if (!(good >> l & 1u)) exact(tet_at(k + static_cast<std::size_t>(l)));
+              if (!(good >> l & 1u)) exact(k + static_cast<std::size_t>(l));
           }
         }
-        for (; k < end; ++k) {
-          const std::size_t t = tet_at(k);
-          if (skip.empty() || !skip[t]) exact(t);
-        }
+        for (; k < end; ++k)
+          if (skip.empty() || !skip[k]) exact(k);
       });
   for (const ValidationReport& part : parts) {
     report.min_quality = std::min(report.min_quality, part.min_quality);
@@ -210,15 +204,31 @@ ValidationReport validate_mesh(const TetMesh& mesh, const ValidationOptions& opt
 }
 
 ValidationReport validate_positions(const Positions& positions, const std::vector<Tet>& tets,
-                                    const ValidationOptions& options,
-                                    std::span<const Index> order) {
+                                    const ValidationOptions& options) {
   ValidationReport report;
   check_coordinates(positions, options, report);
   if (report.nonfinite_node.count > 0) return report;
-  if (!order.empty() && order.size() != tets.size())
-    throw std::invalid_argument("validate_positions: an order of " + std::to_string(order.size()) +
-                                " tets for " + std::to_string(tets.size()));
-  check_shapes(positions, tets, options, {}, order, report);
+  check_shapes(positions, tets, options, {}, {}, report);
+  return report;
+}
+
+TetCheckOrder make_tet_check_order(const Positions& positions, const std::vector<Tet>& tets) {
+  TetCheckOrder order;
+  order.index = tets_in_morton_order(positions, tets);
+  order.tets.reserve(tets.size());
+  for (const Index t : order.index) order.tets.push_back(tets[static_cast<std::size_t>(t)]);
+  return order;
+}
+
+ValidationReport validate_positions(const Positions& positions, const TetCheckOrder& order,
+                                    const ValidationOptions& options) {
+  if (order.index.size() != order.tets.size())
+    throw std::invalid_argument("validate_positions: " + std::to_string(order.index.size()) +
+                                " indices for " + std::to_string(order.tets.size()) + " tets");
+  ValidationReport report;
+  check_coordinates(positions, options, report);
+  if (report.nonfinite_node.count > 0) return report;
+  check_shapes(positions, order.tets, options, {}, order.index, report);
   return report;
 }
 

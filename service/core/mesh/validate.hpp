@@ -1,7 +1,6 @@
 // Mesh validation: what is wrong, how often, and where first.
 #pragma once
 
-#include <span>
 #include <string>
 #include <vector>
 
@@ -62,13 +61,27 @@ struct ValidationReport {
 ValidationReport validate_mesh(const TetMesh& mesh, const ValidationOptions& options = {});
 
 /// Checks only what the positions decide (finite coordinates, degenerate and inverted
-/// tets) for a mesh whose indices are known good: the per-frame check. `order`: every tet
-/// index once, the order to check them in (tets_in_morton_order() reads the positions with
-/// fewer cache misses than a mesher's order), or empty for index order; the report is the
-/// same for every order. Throws std::invalid_argument when `order` has the wrong size.
+/// tets) for a mesh whose indices are known good: the per-frame check.
 ValidationReport validate_positions(const Positions& positions, const std::vector<Tet>& tets,
-                                    const ValidationOptions& options = {},
-                                    std::span<const Index> order = {});
+                                    const ValidationOptions& options = {});
+
+/// A mesh's tets stored in a spatial order for the per-frame check: tets[k] is the mesh's
+/// tet index[k]. A mesher's element order can scatter each tet's nodes over the whole node
+/// array (a 300k-tet Gmsh pawn: over half of it); along a Morton curve consecutive tets
+/// share nodes and the positions are read with far fewer cache misses.
+struct TetCheckOrder {
+  std::vector<Tet> tets;
+  std::vector<Index> index;
+};
+
+/// The tets along a Morton curve of their centroids at `positions` (tets_in_morton_order).
+TetCheckOrder make_tet_check_order(const Positions& positions, const std::vector<Tet>& tets);
+
+/// validate_positions() over the tets of `order`: the same report (indices are the mesh's,
+/// the lists hold the smallest ones) for any order. Throws std::invalid_argument when
+/// `order.index` and `order.tets` differ in size.
+ValidationReport validate_positions(const Positions& positions, const TetCheckOrder& order,
+                                    const ValidationOptions& options = {});
 
 /// Error (kInvalidMesh) naming the first defect when the report is not clean, with
 /// `what` (a file or object name) as the message prefix; ok otherwise. Slivers pass.
