@@ -8,6 +8,8 @@ DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspd
   nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev clang libclang-rt-14-dev iptables
 # DDS Security tests and profile (config/security/make_test_pki.sh)
 DEB_PACKAGES += openssl
+# sd_notify (Type=notify unit)
+DEB_PACKAGES += libsystemd-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
