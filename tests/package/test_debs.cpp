@@ -163,7 +163,7 @@ TEST(DebPackages, EachFileIsWhereDebianWantsItAndInOnePackage) {
       {"tetcollided",
        {{"/usr/bin/tetcollided", "/etc/tetcollide/tetcollided.yaml",
          "/etc/tetcollide/cyclonedds.xml", "/usr/lib/systemd/system/tetcollided.service",
-         "/usr/share/doc/tetcollided/PROTOCOL.md",
+         "/usr/share/doc/tetcollided/PROTOCOL.md", "/usr/share/doc/tetcollided/DEPLOYMENT.md",
          "/usr/share/doc/tetcollided/tetcollide.idl"},
         {"/usr/bin/tetcollided", "/etc/tetcollide/", "/usr/lib/systemd/system/tetcollided.service",
          "/usr/share/doc/tetcollided/"}}},
