@@ -8,10 +8,13 @@ DEB_PACKAGES := cmake ninja-build g++ pkg-config libeigen3-dev libtbb-dev libspd
   nlohmann-json3-dev libcli11-dev clang-format zlib1g-dev libpng-dev clang libclang-rt-14-dev iptables
 # DDS Security tests and profile (config/security/make_test_pki.sh)
 DEB_PACKAGES += openssl
+# sd_notify (Type=notify unit); `make package` and tests/package: CPack's DEB generator
+# runs dpkg-shlibdeps (dpkg-dev), file and readelf (binutils)
+DEB_PACKAGES += libsystemd-dev dpkg-dev file binutils
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
-  format-check bench clean help reliability load soak
+  format-check bench clean help reliability load soak package
 # Seconds each fuzz target runs in `make fuzz` / `make fuzz-short` (CI).
 FUZZ_SECONDS ?= 60
 FUZZ_SHORT_SECONDS ?= 15
@@ -28,6 +31,7 @@ help:
 	@echo "make fuzz        libFuzzer targets, FUZZ_SECONDS=$(FUZZ_SECONDS) s each (build/asan-ubsan)"
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job (daemon with contact stiffness blocks)"
+	@echo "make package     Debian packages in $(BUILD_DIR)/packages/ (docs/DEPLOYMENT.md)"
 	@echo "make format      clang-format every source file"
 	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
 	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"
@@ -83,6 +87,14 @@ fuzz-short: fuzz-build
 demo: deps $(BUILD_DIR)/build.ninja
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target tetcollide tetcollided
 	./scripts/demo.sh
+
+# The Debian packages (packaging/Packaging.cmake) of the Release tree: tetcollided,
+# libtetcollide-client, libtetcollide-client-dev, tetcollide-tools. Builds only what
+# they hold; tests/package checks them (`ctest -L package`).
+package: deps $(BUILD_DIR)/build.ninja
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target tetcollided tetcollide
+	cd $(BUILD_DIR) && cpack -G DEB -B $(abspath $(BUILD_DIR))/packages
+	@ls -1 $(BUILD_DIR)/packages/*.deb
 
 bench: build
 	./scripts/bench.sh

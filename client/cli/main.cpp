@@ -8,7 +8,7 @@
 int main(int argc, char** argv) {
   CLI::App app{"tetcollide: collision of deformable tetrahedral meshes"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "tetcollide 0.1.0");
+  app.set_version_flag("--version", "tetcollide " TC_VERSION);
   tc::cli::Context ctx;
   tc::cli::add_mesh_command(app, ctx);
   tc::cli::add_detect_command(app, ctx);

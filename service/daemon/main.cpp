@@ -32,7 +32,7 @@ int fail_config(const tc::Error& e) {
 
 int main(int argc, char** argv) {
   CLI::App app{"tetcollided: collision service for deformable tetrahedral meshes over DDS"};
-  app.set_version_flag("--version", "tetcollided 0.1.0");
+  app.set_version_flag("--version", "tetcollided " TC_VERSION);
   std::string config_file;
   std::optional<std::uint32_t> domain;
   std::string log_level;
@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
     return kExitFailure;
   }
 
-  spdlog::info("tetcollided 0.1.0 starting (config {}, domain {})",
+  spdlog::info("tetcollided {} starting (config {}, domain {})", TC_VERSION,
                config_file.empty() ? std::string("embedded defaults") : config_file, config.domain);
   tc::daemon::Service service(config);
   if (tc::Status st = service.start(); !st) {

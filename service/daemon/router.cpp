@@ -70,6 +70,12 @@ const SceneRegistry* Router::registry(std::string_view scene) const {
   return it == scenes_.end() ? nullptr : &it->second.registry;
 }
 
+std::size_t Router::object_count() const {
+  std::size_t n = 0;
+  for (const auto& [name, scene] : scenes_) n += scene.registry.size();
+  return n;
+}
+
 void Router::report(std::int32_t code, std::string_view scene, std::string_view object,
                     std::uint32_t version, std::int64_t frame, const std::string& message,
                     Clock::time_point now, std::int64_t topology_timestamp) {
@@ -331,6 +337,7 @@ void Router::try_dispatch(const std::string& scene_name, Scene& scene, Clock::ti
         missing);
   }
   jobs_.post(scene_name, std::move(job));
+  ++dispatched_frames_;
 }
 
 void Router::hold(const StateView& s, Clock::time_point now) {

@@ -46,6 +46,10 @@ class Router {
   [[nodiscard]] std::optional<Clock::time_point> next_deadline() const;
 
   [[nodiscard]] std::size_t scene_count() const { return scenes_.size(); }
+  /// Objects registered across every scene (static ones too).
+  [[nodiscard]] std::size_t object_count() const;
+  /// Frames handed to the scenes' pipelines since the start (complete or not).
+  [[nodiscard]] std::uint64_t dispatched_frames() const { return dispatched_frames_; }
   /// The registry of a scene, or null (tests and diagnostics).
   [[nodiscard]] const SceneRegistry* registry(std::string_view scene) const;
   /// States held for a topology that has not arrived.
@@ -92,6 +96,7 @@ class Router {
   Clock::duration grace_;
   std::map<std::string, Scene, std::less<>> scenes_;
   std::map<HeldKey, Held> held_;
+  std::uint64_t dispatched_frames_ = 0;
 
   // Log rate limit per (scene, object, code): one line per window.
   struct Throttle {

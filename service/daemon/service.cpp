@@ -14,6 +14,7 @@
 #include "router.hpp"
 #include "samples.hpp"
 #include "scheduler.hpp"
+#include "systemd_notify.hpp"
 
 namespace tc::daemon {
 namespace {
@@ -211,20 +212,27 @@ Status Service::run() {
   Impl& s = *impl_;
   if (s.router == nullptr) return Error{ErrorCode::kInvalidArgument, "Service::run before start"};
   const DaemonConfig& c = s.config;
+  // systemd (Type=notify) learns readiness at the same moment as DDS readers (the READY
+  // sample) and the log; outside systemd the notifier does nothing.
+  SystemdNotifier notifier(Clock::now());
   s.outbox.set_state(ServiceState::kReady, "ready");
   spdlog::info("tetcollided ready (service {}, domain {}, partition '{}', scenes {})",
                s.outbox.service_id(), c.domain, c.partition,
                c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")));
+  notifier.ready("ready: " + status_line(0, 0, 0.0));
 
   const auto heartbeat_period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(c.status_period_s));
-  auto next_heartbeat = Clock::now() + heartbeat_period;
+  auto last_heartbeat = Clock::now();
+  auto next_heartbeat = last_heartbeat + heartbeat_period;
+  std::uint64_t frames_at_last_heartbeat = 0;
   Status result;
   std::array<dds_attach_t, 4> triggered{};
   while (!s.stopping.load()) {
     auto now = Clock::now();
     Clock::time_point until = next_heartbeat;
     if (const auto d = s.router->next_deadline(); d && *d < until) until = *d;
+    if (const auto w = notifier.next_watchdog(); w && *w < until) until = *w;
     const dds_duration_t timeout =
         until <= now ? 0
                      : std::chrono::duration_cast<std::chrono::nanoseconds>(until - now).count();
@@ -251,16 +259,26 @@ Status Service::run() {
     }
     now = Clock::now();
     s.router->tick(now);
+    // This loop is the one thread that must never stall: it pings the watchdog.
+    notifier.watchdog(now);
     if (now >= next_heartbeat) {
       StatusMessage hb;
       hb.kind = StatusKind::kHeartbeat;
       hb.message = std::to_string(s.router->scene_count()) + " scenes";
       s.outbox.publish_status(hb);
+      const std::uint64_t frames = s.router->dispatched_frames();
+      const double seconds = std::chrono::duration<double>(now - last_heartbeat).count();
+      notifier.status(status_line(
+          s.router->scene_count(), s.router->object_count(),
+          seconds > 0.0 ? static_cast<double>(frames - frames_at_last_heartbeat) / seconds : 0.0));
+      frames_at_last_heartbeat = frames;
+      last_heartbeat = now;
       next_heartbeat = now + heartbeat_period;
     }
   }
   s.outbox.set_state(ServiceState::kStopping, "stopping");
   spdlog::info("tetcollided stopping");
+  notifier.stopping("stopping");
   if (!s.scheduler->shutdown(std::chrono::seconds(10)))
     spdlog::warn("scene jobs still running after 10 s; waiting for them");
   return result;

@@ -20,9 +20,11 @@ class Service {
   /// Creates the DDS entities and publishes STARTING. Errors name the failing DDS call.
   Status start();
 
-  /// Announces READY (ServiceStatus sample and the log line "tetcollided ready"), then
-  /// serves until stop() is called; announces STOPPING, lets running frames finish and
-  /// deletes the DDS entities. Returns the first unrecoverable DDS error, if any.
+  /// Announces READY (ServiceStatus sample, the log line "tetcollided ready" and, when
+  /// started by systemd, READY=1), then serves until stop() is called, sending systemd a
+  /// STATUS= line every status period and WATCHDOG=1 when it asks for them; announces
+  /// STOPPING (and STOPPING=1), lets running frames finish and deletes the DDS entities.
+  /// Returns the first unrecoverable DDS error, if any.
   Status run();
 
   /// Asks run() to return. Thread-safe; not async-signal-safe (call it from a thread

@@ -1,7 +1,9 @@
-# cmake -DBUILD_DIR=... -DPREFIX=... -P check_install.cmake
+# cmake -DBUILD_DIR=... -DPREFIX=... -DLIBDIR=... -P check_install.cmake
 # Installs the build into PREFIX and checks the background-service layout: daemon,
-# default config, Cyclone config, systemd unit with the prefix's paths; then starts the
-# installed daemon on the installed config and waits for its readiness line.
+# default config, Cyclone config, systemd unit (Type=notify) with the prefix's paths, the
+# client library with its CMake package and .pc file (tests/package builds programs
+# against them); then starts the installed daemon on the installed config and waits for
+# its readiness line.
 file(REMOVE_RECURSE ${PREFIX})
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${PREFIX}
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -10,7 +12,9 @@ if(NOT rc EQUAL 0)
 endif()
 foreach(f bin/tetcollided bin/tetcollide etc/tetcollide/tetcollided.yaml
           etc/tetcollide/cyclonedds.xml lib/systemd/system/tetcollided.service
-          include/tetcollide/client.hpp)
+          include/tetcollide/client.hpp ${LIBDIR}/libtetcollide_client.so.0
+          ${LIBDIR}/cmake/tetcollide/tetcollideConfig.cmake
+          ${LIBDIR}/pkgconfig/tetcollide-client.pc share/doc/tetcollided/PROTOCOL.md)
   if(NOT EXISTS ${PREFIX}/${f})
     message(FATAL_ERROR "not installed: ${PREFIX}/${f}")
   endif()
@@ -19,7 +23,8 @@ file(READ ${PREFIX}/lib/systemd/system/tetcollided.service unit)
 foreach(line
     "ExecStart=${PREFIX}/bin/tetcollided --config ${PREFIX}/etc/tetcollide/tetcollided.yaml"
     "Environment=CYCLONEDDS_URI=file://${PREFIX}/etc/tetcollide/cyclonedds.xml"
-    "KillSignal=SIGTERM")
+    "Documentation=file://${PREFIX}/share/doc/tetcollided/PROTOCOL.md"
+    "Type=notify" "KillSignal=SIGTERM")
   string(FIND "${unit}" "${line}" at)
   if(at LESS 0)
     message(FATAL_ERROR "the unit lacks '${line}':\n${unit}")

@@ -816,7 +816,7 @@ TEST(DaemonCommandLine, UsageAndConfigurationErrors) {
   EXPECT_EQ(r.exit_code, 2) << r.err;
   r = run_program({daemon, "--version"}, 20s);
   EXPECT_EQ(r.exit_code, 0);
-  EXPECT_NE(r.out.find("tetcollided 0.1.0"), std::string::npos);
+  EXPECT_NE(r.out.find("tetcollided " TC_VERSION), std::string::npos) << r.out;
   std::filesystem::remove_all(dir);
 }
 

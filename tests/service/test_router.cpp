@@ -234,6 +234,24 @@ TEST_F(RouterTest, ScenesAreIndependent) {
   EXPECT_EQ(jobs.jobs[3].first, "s2");
 }
 
+// The counts behind the daemon's systemd STATUS= line (objects, frames/s).
+TEST_F(RouterTest, CountsObjectsAndDispatchedFrames) {
+  EXPECT_EQ(router().object_count(), 0u);
+  EXPECT_EQ(router().dispatched_frames(), 0u);
+  add_object("s1", "a");
+  add_object("s1", "floor", 1, true);
+  add_object("s2", "a");
+  EXPECT_EQ(router().object_count(), 3u);
+  send("s1", "a", 1);
+  send("s2", "a", 1);
+  send("s2", "a", 2);
+  EXPECT_EQ(router().dispatched_frames(), 3u);
+  EXPECT_EQ(router().dispatched_frames(), jobs.frames().size());
+  router().on_topology_gone("s2", "a");
+  EXPECT_EQ(router().object_count(), 2u);
+  EXPECT_EQ(router().dispatched_frames(), 3u);  // a count since the start, not a gauge
+}
+
 TEST_F(RouterTest, BadStateIsRejectedButAnswered) {
   add_object("s", "a");
   add_object("s", "b");
