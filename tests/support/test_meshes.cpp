@@ -4,6 +4,7 @@
 #include <cstdlib>
 
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/topology.hpp"
 
 namespace tc::test {
 namespace {
@@ -134,6 +135,49 @@ TriMesh2 rect_mesh_2d(int nx, int ny, double w, double h) {
       mesh.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
     }
   return mesh;
+}
+
+SurfaceMesh cube_surface(double s, const Eigen::Vector3d& o) {
+  SurfaceMesh m;
+  m.positions.resize(3, 8);
+  for (int i = 0; i < 8; ++i) {
+    m.positions.col(i) = o + s * Eigen::Vector3d(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    m.node_ids.push_back(i + 1);
+  }
+  // Each face as a quad (a, b, c, d), counter-clockwise seen from outside.
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.triangles.push_back({q[0], q[1], q[2]});
+    m.triangles.push_back({q[0], q[2], q[3]});
+  }
+  return m;
+}
+
+SurfaceMesh square_surface(int n, double w, double z) {
+  SurfaceMesh m;
+  m.positions.resize(3, (n + 1) * (n + 1));
+  const auto id = [&](int i, int j) { return j * (n + 1) + i; };
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      m.positions.col(id(i, j)) = Eigen::Vector3d(w * i / n, w * j / n, z);
+      m.node_ids.push_back(id(i, j) + 1);
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return m;
+}
+
+SurfaceMesh boundary_surface_of(const TetMesh& mesh) {
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  SurfaceMesh s;
+  s.node_ids = mesh.node_ids;
+  s.positions = mesh.positions;
+  s.triangles.assign(topo.boundary_faces.begin(), topo.boundary_faces.end());
+  return s;
 }
 
 TriMesh2 disc_mesh_2d(int n, double r) {

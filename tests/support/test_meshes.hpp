@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/io/mesh_io.hpp"
+#include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
 namespace tc::test {
@@ -44,6 +45,18 @@ TriMesh2 disc_mesh_2d(int n, double r);
 
 /// The rectangle [0, w] x [0, h] in nx x ny cells, two triangles each.
 TriMesh2 rect_mesh_2d(int nx, int ny, double w, double h);
+
+/// The cube [0, s]^3 + o as a closed surface: 8 nodes (node i at o + s (i&1, i>>1&1,
+/// i>>2&1)), 12 triangles with outward right-hand normals.
+SurfaceMesh cube_surface(double s = 1.0, const Eigen::Vector3d& o = Eigen::Vector3d::Zero());
+
+/// The square [0, w]^2 at height z in n x n cells, two triangles each, normals +z (an open
+/// surface); node (i, j) is j (n + 1) + i.
+SurfaceMesh square_surface(int n = 1, double w = 1.0, double z = 0.0);
+
+/// The boundary of a tet mesh as a surface: every node of the mesh (interior ones unused),
+/// the boundary faces as triangles (outward normals for positive tets).
+SurfaceMesh boundary_surface_of(const TetMesh& mesh);
 
 /// Path of a file in tests/data (from the TC_TEST_DATA environment variable, set by
 /// CTest, else the source tree path compiled in).

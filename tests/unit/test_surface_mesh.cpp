@@ -7,38 +7,15 @@
 #include <cmath>
 #include <limits>
 
+#include "test_meshes.hpp"
+
 namespace tc {
 namespace {
 
 using Eigen::Vector3d;
 
-/// The cube [0, s]^3 as 12 triangles with outward right-hand normals, offset by `o`.
-SurfaceMesh cube_surface(double s = 1.0, const Vector3d& o = Vector3d::Zero()) {
-  SurfaceMesh m;
-  m.positions.resize(3, 8);
-  for (int i = 0; i < 8; ++i) {
-    m.positions.col(i) = o + s * Vector3d(i & 1, (i >> 1) & 1, (i >> 2) & 1);
-    m.node_ids.push_back(i + 1);
-  }
-  // Each face as a quad (a, b, c, d) counter-clockwise seen from outside.
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    m.triangles.push_back({q[0], q[1], q[2]});
-    m.triangles.push_back({q[0], q[2], q[3]});
-  }
-  return m;
-}
-
-/// The square [0, 1]^2 at z = 0 in two triangles (an open surface).
-SurfaceMesh square_surface() {
-  SurfaceMesh m;
-  m.positions.resize(3, 4);
-  m.positions << 0, 1, 1, 0, 0, 0, 1, 1, 0, 0, 0, 0;
-  m.node_ids = {1, 2, 3, 4};
-  m.triangles = {{0, 1, 2}, {0, 2, 3}};
-  return m;
-}
+using test::cube_surface;
+using test::square_surface;
 
 SurfaceStats stats_of(const SurfaceMesh& m) {
   const SurfaceValidationReport r = validate_surface(m);
@@ -238,7 +215,7 @@ TEST(SurfaceStats, OpenSquareNonManifoldFinAndUnusedNode) {
   EXPECT_NEAR(s.area, 1.0, 1e-15);
   EXPECT_EQ(s.enclosed_volume, 0.0);
 
-  // A fin: a third triangle on the diagonal (0, 2), and an unused node, a second
+  // A fin: a third triangle on the diagonal (0, 3), and an unused node, a second
   // component (a lone triangle).
   SurfaceMesh m = square_surface();
   m.positions.conservativeResize(3, 9);
@@ -248,7 +225,7 @@ TEST(SurfaceStats, OpenSquareNonManifoldFinAndUnusedNode) {
   m.positions.col(7) << 4, 0, 0;
   m.positions.col(8) << 3, 1, 0;
   m.node_ids.resize(9);
-  m.triangles.push_back({0, 2, 4});
+  m.triangles.push_back({0, 3, 4});
   m.triangles.push_back({6, 7, 8});
   s = stats_of(m);
   EXPECT_EQ(s.nonmanifold_edges, 1);

@@ -14,6 +14,7 @@
 
 #include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
+#include "core/io/surface_io.hpp"
 
 namespace tc {
 
@@ -58,8 +59,9 @@ constexpr std::uint64_t kMaxCount = static_cast<std::uint64_t>(std::numeric_limi
 /// Nodes and wanted elements as parsed, before they become a TetMesh or TriMesh2.
 struct GmshData {
   std::vector<std::int64_t> ids;
-  std::vector<double> xyz;  ///< 3 per node
-  std::vector<Index> conn;  ///< `wanted_nodes` per element
+  std::vector<double> xyz;      ///< 3 per node
+  std::vector<Index> conn;      ///< `wanted_nodes` per element
+  std::uint64_t tets_seen = 0;  ///< 4-node tets (type 4) in the file, wanted or not
 };
 
 class GmshParser {
@@ -350,6 +352,7 @@ Status GmshParser::parse_elements_v2() {
       if (!tok.next(t))
         return fail(ErrorCode::kParse, "expected " + std::to_string(ntags) + " tags for element " +
                                            std::to_string(num));
+    if (type == 4) ++out_.tets_seen;
     if (type == wanted_type_) {
       Index conn[8];
       std::size_t got = 0;
@@ -490,6 +493,7 @@ Status GmshParser::parse_elements_v4_text() {
                                          std::to_string(num_elements) + " elements announced");
     total += count;
     const int expected = gmsh_element_node_count(static_cast<int>(type > 1000 ? 0 : type));
+    if (type == 4) out_.tets_seen += static_cast<std::uint64_t>(count);
     const bool wanted = type == wanted_type_;
     if (wanted) out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
     for (std::int64_t i = 0; i < count; ++i) {
@@ -682,6 +686,7 @@ Status GmshParser::parse_elements_v4_binary() {
       return truncated(std::to_string(count) + " elements of type " + std::to_string(type) +
                        " in block " + std::to_string(b + 1));
     total += count;
+    if (type == 4) out_.tets_seen += count;
     if (type == wanted_type_) {
       if (out_.conn.size() / k + count > kMaxCount)
         return fail_at(block_at, ErrorCode::kUnsupported, "more than 2^31-1 elements");
@@ -783,6 +788,34 @@ Expected<TriMesh2> read_gmsh_triangles_buffer(std::string_view data, const std::
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
     for (std::size_t j = 0; j < 3; ++j) mesh.triangles[i][j] = d.conn[3 * i + j];
   return mesh;
+}
+
+Expected<SurfaceMesh> read_gmsh_surface_buffer(std::string_view data, const std::string& name) {
+  GmshParser parser(data, name, 2, 3);
+  if (Status st = parser.parse(); !st) return st.error();
+  GmshData& d = parser.result();
+  if (d.tets_seen > 0)
+    return Error{ErrorCode::kUnsupported,
+                 name + ": holds " + std::to_string(d.tets_seen) +
+                     " tetrahedra: a tet mesh, not a surface (a surface file has 3-node "
+                     "triangles and no tets)"};
+  if (d.conn.empty())
+    return Error{ErrorCode::kUnsupported,
+                 name + ": no 3-node triangles (element type 2): not a surface"};
+  SurfaceMesh mesh;
+  mesh.node_ids = std::move(d.ids);
+  mesh.positions =
+      Eigen::Map<const Positions>(d.xyz.data(), 3, static_cast<Eigen::Index>(mesh.node_ids.size()));
+  mesh.triangles.resize(d.conn.size() / 3);
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+    for (std::size_t j = 0; j < 3; ++j) mesh.triangles[i][j] = d.conn[3 * i + j];
+  return mesh;
+}
+
+Expected<SurfaceMesh> read_gmsh_surface(const std::filesystem::path& path) {
+  auto data = io_detail::read_whole_file(path);
+  if (!data) return data.error();
+  return read_gmsh_surface_buffer(*data, path.string());
 }
 
 Expected<TetMesh> read_gmsh(const std::filesystem::path& path) {
