@@ -1,11 +1,15 @@
 // `tetcollide mesh info FILE [--json]` and `tetcollide mesh convert IN OUT.vtu`.
+// `mesh info` reports a tet mesh or, for .stl, .obj and a .msh with triangles and no
+// tets, a triangle surface (docs/SURFACES.md).
 #include <cstdio>
 #include <iostream>
 
 #include "cli_common.hpp"
 #include "core/io/mesh_io.hpp"
+#include "core/io/surface_io.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/mesh_stats.hpp"
+#include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 
@@ -22,16 +26,84 @@ struct MeshConvertArgs {
   std::string output;
 };
 
+int surface_info(const MeshInfoArgs& args, const SurfaceMesh& mesh) {
+  const SurfaceValidationReport report = validate_surface(mesh);
+  if (report.structurally_invalid())
+    return report_error(require_valid_surface(report, args.file).error());
+  const SurfaceStats s = compute_surface_stats(mesh, build_surface_edges(mesh.triangles), report);
+  const double diagonal = (s.bbox_hi - s.bbox_lo).norm();
+  if (args.json) {
+    nlohmann::json out = {{"kind", "surface"},
+                          {"nodes", s.nodes},
+                          {"triangles", s.triangles},
+                          {"edges", s.edges},
+                          {"boundary_edges", s.boundary_edges},
+                          {"nonmanifold_edges", s.nonmanifold_edges},
+                          {"misoriented_edges", s.misoriented_edges},
+                          {"components", s.components},
+                          {"unused_nodes", s.unused_nodes},
+                          {"degenerate_triangles", s.degenerate_triangles},
+                          {"closed", s.closed},
+                          {"consistently_oriented", s.misoriented_edges == 0},
+                          {"area", s.area},
+                          {"bbox_min", {s.bbox_lo.x(), s.bbox_lo.y(), s.bbox_lo.z()}},
+                          {"bbox_max", {s.bbox_hi.x(), s.bbox_hi.y(), s.bbox_hi.z()}},
+                          {"bbox_diagonal", diagonal},
+                          {"min_quality", s.min_quality}};
+    if (s.oriented) {
+      out["enclosed_volume"] = s.enclosed_volume;
+      out["normals"] = s.outward ? "outward" : "inward";
+    }
+    print_json(out);
+    return kExitOk;
+  }
+  std::printf("file:                 %s\n", args.file.c_str());
+  std::printf("kind:                 surface\n");
+  std::printf("nodes:                %d\n", s.nodes);
+  std::printf("triangles:            %d\n", s.triangles);
+  std::printf("edges:                %d\n", s.edges);
+  std::printf("boundary_edges:       %d\n", s.boundary_edges);
+  std::printf("nonmanifold_edges:    %d\n", s.nonmanifold_edges);
+  std::printf("misoriented_edges:    %d\n", s.misoriented_edges);
+  std::printf("components:           %d\n", s.components);
+  std::printf("unused_nodes:         %d\n", s.unused_nodes);
+  std::printf("degenerate_triangles: %zu\n", s.degenerate_triangles);
+  std::printf("min_quality:          %.6g\n", s.min_quality);
+  std::printf("closed:               %s\n",
+              s.closed ? (s.oriented ? "yes" : "yes, but inconsistently oriented") : "no (open)");
+  std::printf("area:                 %.9g\n", s.area);
+  if (s.oriented)
+    std::printf("enclosed_volume:      %.9g (normals %s)\n", s.enclosed_volume,
+                s.outward ? "outward" : "inward");
+  std::printf("bbox:                 [%.9g, %.9g, %.9g] - [%.9g, %.9g, %.9g]\n", s.bbox_lo.x(),
+              s.bbox_lo.y(), s.bbox_lo.z(), s.bbox_hi.x(), s.bbox_hi.y(), s.bbox_hi.z());
+  std::printf("bbox_diagonal:        %.9g\n", diagonal);
+  if (!report.clean()) std::printf("warning:              %s\n", report.summary().c_str());
+  return kExitOk;
+}
+
 int run_info(const MeshInfoArgs& args) {
+  if (is_surface_extension(args.file)) {
+    auto surface = read_surface(args.file);
+    if (!surface) return report_error(surface.error());
+    return surface_info(args, *surface);
+  }
   auto mesh = read_mesh(args.file);
   if (!mesh) return report_error(mesh.error());
+  if (mesh->num_tets() == 0) {
+    // A .msh with 3-node triangles and no tets is a surface; with neither, the tet
+    // report below (0 tets) says what the file holds.
+    auto surface = read_gmsh_surface(args.file);
+    if (surface) return surface_info(args, *surface);
+  }
   const ValidationReport report = validate_mesh(*mesh);
   if (report.structurally_invalid())
     return report_error(Error{ErrorCode::kInvalidMesh, args.file + ": " + report.summary()});
   const Topology topo = build_topology(mesh->tets, mesh->num_nodes());
   const MeshStats s = compute_mesh_stats(*mesh, topo, report);
   if (args.json) {
-    print_json({{"nodes", s.nodes},
+    print_json({{"kind", "tets"},
+                {"nodes", s.nodes},
                 {"tets", s.tets},
                 {"boundary_faces", s.boundary_faces},
                 {"boundary_edges", s.boundary_edges},
@@ -87,12 +159,18 @@ int run_convert(const MeshConvertArgs& args) {
 }  // namespace
 
 void add_mesh_command(CLI::App& app, Context& ctx) {
-  auto* mesh = app.add_subcommand("mesh", "Inspect and convert tetrahedral meshes");
+  auto* mesh = app.add_subcommand("mesh", "Inspect and convert tetrahedral meshes and surfaces");
   mesh->require_subcommand(1);
 
   auto info_args = std::make_shared<MeshInfoArgs>();
-  auto* info = mesh->add_subcommand("info", "Counts, boundary, components and quality of a mesh");
-  info->add_option("FILE", info_args->file, "Mesh file (.msh, .node/.ele)")->required();
+  auto* info = mesh->add_subcommand(
+      "info",
+      "Counts, boundary, components and quality of a tet mesh or a triangle surface (closed or "
+      "open, area, enclosed volume)");
+  info->add_option("FILE", info_args->file,
+                   "Mesh file (.msh, .node/.ele) or surface file (.stl, .obj, .msh with triangles "
+                   "and no tets)")
+      ->required();
   info->add_flag("--json", info_args->json, "Print one JSON object");
   info->callback([&ctx, info_args] { ctx.exit_code = run_info(*info_args); });
 
