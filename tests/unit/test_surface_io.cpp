@@ -202,10 +202,16 @@ TEST(ReadStl, HostileBinaryNamesTheByte) {
             "s.stl: byte 3: unexpected end of file: shorter than the 84-byte binary STL header, "
             "and not ASCII STL (no 'solid')");
   EXPECT_EQ(error_of(read_stl_buffer("", "s.stl")), "s.stl: empty file, expected an STL");
-  // A "solid" header whose size does not fit the count is read as ASCII, and fails there.
+  // A "solid" header whose size does not fit the count is read as ASCII, fails there, and
+  // the message says why it was not read as binary.
   std::string solid = binary_stl(cube, "solid x");
   solid.pop_back();
-  EXPECT_NE(error_of(read_stl_buffer(solid, "b.stl")).find("b.stl:"), std::string::npos);
+  const std::string message = error_of(read_stl_buffer(solid, "b.stl"));
+  EXPECT_EQ(message.rfind("b.stl:", 0), 0u) << message;
+  EXPECT_NE(message.find("(read as ASCII STL: it begins with 'solid' and its size 683 is not the "
+                         "binary 84 + 50 x 12 = 684)"),
+            std::string::npos)
+      << message;
 }
 
 TEST(ReadStl, EveryTruncationIsAnErrorOrASurfaceNeverACrash) {

@@ -386,7 +386,18 @@ Expected<SurfaceMesh> read_stl_buffer(std::string_view data, const std::string& 
                         "unexpected end of file: shorter than the 84-byte binary STL header, "
                         "and not ASCII STL (no 'solid')");
   }
-  return StlAsciiParser(data, name).parse();
+  auto ascii = StlAsciiParser(data, name).parse();
+  if (!ascii && data.size() >= 84 && data.find('\0') != std::string_view::npos) {
+    // Text has no NUL byte: a binary file whose header begins with "solid" but whose size
+    // is off ends here; say so.
+    const std::uint64_t count = load_le<std::uint32_t>(data.data() + 80);
+    Error e = ascii.error();
+    e.message += " (read as ASCII STL: it begins with 'solid' and its size " +
+                 std::to_string(data.size()) + " is not the binary 84 + 50 x " +
+                 std::to_string(count) + " = " + std::to_string(84 + 50 * count) + ")";
+    return e;
+  }
+  return ascii;
 }
 
 Expected<SurfaceMesh> read_stl(const std::filesystem::path& path) {
