@@ -1,0 +1,325 @@
+#include "core/detect/surface_detect.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "core/detect/broad_phase.hpp"
+#include "core/detect/chunked.hpp"
+#include "core/detect/tri_tet_overlap.hpp"
+#include "core/mesh/topology.hpp"
+
+namespace tc {
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+/// Items per chunk of the deterministic parallel loops (independent of the thread count).
+constexpr std::size_t kChunk = 256;
+
+Aabb finite_box(const Positions& p) {
+  Aabb box;
+  for (Eigen::Index i = 0; i < p.cols(); ++i)
+    if (p.col(i).allFinite()) box.extend(Vector3d(p.col(i)));
+  return box;
+}
+
+TriangleCorners triangle_corners(const Positions& p, const Triangle& t) {
+  return {p.col(t[0]), p.col(t[1]), p.col(t[2])};
+}
+
+bool finite(const TriangleCorners& t) {
+  return t[0].allFinite() && t[1].allFinite() && t[2].allFinite();
+}
+bool finite(const TetCorners& t) {
+  return t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite();
+}
+
+template <std::size_t N>
+Aabb corner_box(const std::array<Vector3d, N>& c) {
+  Aabb box;
+  for (const Vector3d& x : c) box.extend(x);
+  return box;
+}
+
+/// The items whose box meets `region` (sorted) and their boxes cut to it. A point common
+/// to a triangle and a tet lies in both object boxes, so in both cut boxes: the cut loses
+/// no pair, and exact min/max need no padding.
+template <typename BoxOf>
+void in_region(std::size_t count, const Aabb& region, const BoxOf& box_of,
+               std::vector<Index>& items, std::vector<Aabb>& boxes) {
+  const std::size_t chunks = detail::num_chunks(count, kChunk);
+  std::vector<std::vector<Index>> item_parts(chunks);
+  std::vector<std::vector<Aabb>> box_parts(chunks);
+  detail::for_chunks(count, kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Aabb box = box_of(i);
+      if (box.empty() || !box.overlaps(region)) continue;
+      item_parts[c].push_back(static_cast<Index>(i));
+      box_parts[c].push_back(box.intersection(region));
+    }
+  });
+  items.clear();
+  boxes.clear();
+  for (std::size_t c = 0; c < chunks; ++c) {
+    items.insert(items.end(), item_parts[c].begin(), item_parts[c].end());
+    boxes.insert(boxes.end(), box_parts[c].begin(), box_parts[c].end());
+  }
+}
+
+/// Rows of a CSR from (row, item) pairs given row by row in `count` rows.
+template <typename Fill>
+Csr build_csr(std::size_t rows, std::size_t entries_hint, const Fill& fill) {
+  std::vector<std::pair<Index, Index>> pairs;
+  pairs.reserve(entries_hint);
+  fill(pairs);
+  std::sort(pairs.begin(), pairs.end());
+  Csr csr;
+  csr.offsets.assign(rows + 1, 0);
+  for (const auto& [r, item] : pairs) ++csr.offsets[static_cast<std::size_t>(r) + 1];
+  for (std::size_t r = 0; r < rows; ++r) csr.offsets[r + 1] += csr.offsets[r];
+  csr.indices.reserve(pairs.size());
+  for (const auto& pair : pairs) csr.indices.push_back(pair.second);
+  return csr;
+}
+
+struct EdgeHit {
+  IntrudingEdge edge;
+  double dl;  ///< tolerance in lambda units
+};
+
+}  // namespace
+
+SurfaceContacts detect_surface_tets(const Positions& surface_positions,
+                                    std::span<const Triangle> triangles, const SurfaceEdges& edges,
+                                    const Positions& tet_positions, std::span<const Tet> tets,
+                                    const DetectOptions& options, SurfaceDetectStats* stats) {
+  if (edges.triangle_edges.size() != triangles.size())
+    throw std::invalid_argument("detect_surface_tets: edges were built from other triangles");
+  SurfaceContacts out;
+  SurfaceDetectStats local_stats;
+  SurfaceDetectStats& st = stats != nullptr ? *stats : local_stats;
+  st = {};
+  const double rel = options.relative_tolerance > 0.0 ? options.relative_tolerance : 0.0;
+  const Aabb region = finite_box(surface_positions).intersection(finite_box(tet_positions));
+  st.boxes_overlap = !region.empty();
+  if (!st.boxes_overlap) return out;
+
+  // ---- broad phase: triangle boxes against tet boxes, both cut to the overlap box.
+  std::vector<Index> tris_in, tets_in;
+  std::vector<Aabb> tri_boxes, tet_boxes;
+  in_region(
+      triangles.size(), region,
+      [&](std::size_t i) {
+        const TriangleCorners c = triangle_corners(surface_positions, triangles[i]);
+        return finite(c) ? corner_box(c) : Aabb{};
+      },
+      tris_in, tri_boxes);
+  in_region(
+      tets.size(), region,
+      [&](std::size_t i) {
+        const TetCorners c = tet_corners(tet_positions, tets[i]);
+        return finite(c) ? corner_box(c) : Aabb{};
+      },
+      tets_in, tet_boxes);
+  st.triangles_in_box = tris_in.size();
+  st.tets_in_box = tets_in.size();
+  if (tris_in.empty() || tets_in.empty()) return out;
+  std::vector<BoundingSphere> tri_spheres;
+  TetBounds tet_bounds;
+  if (options.broad_phase == BroadPhaseKind::kGrid) {
+    // The paper's grid rounds elements by spheres: centroid, farthest corner, a hair more.
+    tri_spheres.resize(triangles.size());
+    for (const Index t : tris_in) {
+      const TriangleCorners c = triangle_corners(surface_positions, triangles[t]);
+      const Vector3d center = (c[0] + c[1] + c[2]) / 3.0;
+      const double r2 =
+          std::max(std::max((c[0] - center).squaredNorm(), (c[1] - center).squaredNorm()),
+                   (c[2] - center).squaredNorm());
+      tri_spheres[static_cast<std::size_t>(t)] = {center, std::sqrt(r2) * (1.0 + 16.0 * kEps)};
+    }
+    tet_bounds.compute(tet_positions, tets, tets_in, true);
+  }
+  AabbTree tree;
+  BvhSide bvh;
+  if (options.broad_phase == BroadPhaseKind::kBvh) {
+    tree.build(tet_boxes);
+    bvh = {&tree, tet_boxes, {}, true};
+  }
+  std::vector<TetPair> candidates;
+  BroadPhase broad;
+  broad.find_pairs(options.broad_phase, {tris_in, tri_boxes, tri_spheres},
+                   {tets_in, tet_boxes, tet_bounds.spheres}, bvh, candidates);
+  st.candidates = candidates.size();
+
+  // ---- narrow phase: the geometry of each tet in a candidate once, then the exact test.
+  std::vector<Index> slot(tets.size(), -1);
+  std::vector<Index> cand_tets;
+  for (const TetPair& p : candidates) cand_tets.push_back(p.tet_b);
+  std::sort(cand_tets.begin(), cand_tets.end());
+  cand_tets.erase(std::unique(cand_tets.begin(), cand_tets.end()), cand_tets.end());
+  std::vector<TetGeometry> geom(cand_tets.size());
+  detail::for_chunks(
+      cand_tets.size(), kChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
+        for (std::size_t i = begin; i < end; ++i)
+          make_tet_geometry(
+              tet_corners(tet_positions, tets[static_cast<std::size_t>(cand_tets[i])]), geom[i]);
+      });
+  for (std::size_t i = 0; i < cand_tets.size(); ++i)
+    slot[static_cast<std::size_t>(cand_tets[i])] = static_cast<Index>(i);
+  const auto geometry_of = [&](Index tet) -> const TetGeometry& {
+    return geom[static_cast<std::size_t>(slot[static_cast<std::size_t>(tet)])];
+  };
+  {
+    const std::size_t chunks = detail::num_chunks(candidates.size(), kChunk);
+    std::vector<std::vector<TriTetPair>> parts(chunks);
+    detail::for_chunks(
+        candidates.size(), kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+          for (std::size_t i = begin; i < end; ++i) {
+            const TetPair& p = candidates[i];
+            const TriangleCorners t =
+                triangle_corners(surface_positions, triangles[static_cast<std::size_t>(p.tet_a)]);
+            const TetGeometry& g = geometry_of(p.tet_b);
+            const double scale = pair_scale(t, g.v);
+            if (triangle_tet_overlap(t, g, rel * scale)) parts[c].push_back({p.tet_a, p.tet_b});
+          }
+        });
+    for (const auto& part : parts)
+      out.overlapping.insert(out.overlapping.end(), part.begin(), part.end());
+  }
+  st.overlapping = out.overlapping.size();
+  if (out.overlapping.empty()) return out;
+
+  // ---- marked elements; rows: the tets each marked triangle overlaps (sorted).
+  std::vector<Index> row_begin(triangles.size() + 1, -1);
+  for (std::size_t i = 0; i < out.overlapping.size(); ++i) {
+    const Index t = out.overlapping[i].triangle;
+    if (out.marked_triangles.empty() || out.marked_triangles.back() != t) {
+      out.marked_triangles.push_back(t);
+      row_begin[static_cast<std::size_t>(t)] = static_cast<Index>(i);
+    }
+    out.marked_tets.push_back(out.overlapping[i].tet);
+  }
+  std::sort(out.marked_tets.begin(), out.marked_tets.end());
+  out.marked_tets.erase(std::unique(out.marked_tets.begin(), out.marked_tets.end()),
+                        out.marked_tets.end());
+  const auto row = [&](Index triangle) -> std::span<const TriTetPair> {
+    const Index b = row_begin[static_cast<std::size_t>(triangle)];
+    if (b < 0) return {};
+    auto e = static_cast<std::size_t>(b);
+    while (e < out.overlapping.size() && out.overlapping[e].triangle == triangle) ++e;
+    return {out.overlapping.data() + b, e - static_cast<std::size_t>(b)};
+  };
+
+  // ---- surface nodes inside tets.
+  if (options.intruding_nodes) {
+    const Csr node_tris = build_csr(static_cast<std::size_t>(surface_positions.cols()),
+                                    3 * out.marked_triangles.size(),
+                                    [&](std::vector<std::pair<Index, Index>>& pairs) {
+                                      for (const Index t : out.marked_triangles)
+                                        for (const Index v : triangles[static_cast<std::size_t>(t)])
+                                          pairs.push_back({v, t});
+                                    });
+    std::vector<Index> nodes;
+    for (Index v = 0; v < node_tris.rows(); ++v)
+      if (!node_tris.row(v).empty()) nodes.push_back(v);
+    const std::size_t chunks = detail::num_chunks(nodes.size(), kChunk);
+    std::vector<std::vector<IntrudingNode>> parts(chunks);
+    detail::for_chunks(nodes.size(), kChunk,
+                       [&](std::size_t begin, std::size_t end, std::size_t c) {
+                         for (std::size_t i = begin; i < end; ++i) {
+                           const Index node = nodes[i];
+                           const Vector3d p = surface_positions.col(node);
+                           if (!p.allFinite()) continue;
+                           // The first tet in tet order containing the node, among the tets its
+                           // marked triangles overlap; rows are sorted, so a row stops at the best
+                           // found so far.
+                           Index best = std::numeric_limits<Index>::max();
+                           Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+                           for (const Index t : node_tris.row(node))
+                             for (const TriTetPair& pair : row(t)) {
+                               if (pair.tet >= best) break;
+                               const TetGeometry& g = geometry_of(pair.tet);
+                               const double tol = rel * g.scale;
+                               if (!((p.array() >= g.lo.array() - tol).all() &&
+                                     (p.array() <= g.hi.array() + tol).all()))
+                                 continue;
+                               const PointInTet hit = point_in_tet(p, g, tol);
+                               if (hit.inside) {
+                                 best = pair.tet;
+                                 bary = hit.bary;
+                                 break;
+                               }
+                             }
+                           if (best != std::numeric_limits<Index>::max())
+                             parts[c].push_back({node, best, bary});
+                         }
+                       });
+    for (const auto& part : parts)
+      out.nodes_in_tets.insert(out.nodes_in_tets.end(), part.begin(), part.end());
+  }
+
+  // ---- surface edges clipped by tets.
+  if (options.intruding_edges) {
+    const Csr edge_tris =
+        build_csr(edges.edges.size(), 3 * out.marked_triangles.size(),
+                  [&](std::vector<std::pair<Index, Index>>& pairs) {
+                    for (const Index t : out.marked_triangles)
+                      for (const Index e : edges.triangle_edges[static_cast<std::size_t>(t)])
+                        pairs.push_back({e, t});
+                  });
+    std::vector<Index> feature_edges;
+    for (Index e = 0; e < edge_tris.rows(); ++e)
+      if (!edge_tris.row(e).empty()) feature_edges.push_back(e);
+    const std::size_t chunks = detail::num_chunks(feature_edges.size(), kChunk);
+    std::vector<std::vector<IntrudingEdge>> parts(chunks);
+    detail::for_chunks(
+        feature_edges.size(), kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+          std::vector<Index> near;
+          std::vector<EdgeHit> hits;
+          std::vector<IntrudingEdge>& part = parts[c];
+          for (std::size_t i = begin; i < end; ++i) {
+            const Index edge = feature_edges[i];
+            const auto& ends = edges.edges[static_cast<std::size_t>(edge)];
+            const Vector3d p0 = surface_positions.col(ends[0]), p1 = surface_positions.col(ends[1]);
+            const double length = (p1 - p0).norm();
+            if (!std::isfinite(length)) continue;
+            const Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
+            // Every tet overlapped by a marked triangle around the edge, once.
+            near.clear();
+            for (const Index t : edge_tris.row(edge))
+              for (const TriTetPair& pair : row(t)) near.push_back(pair.tet);
+            std::sort(near.begin(), near.end());
+            near.erase(std::unique(near.begin(), near.end()), near.end());
+            hits.clear();
+            for (const Index tet : near) {
+              const TetGeometry& g = geometry_of(tet);
+              const double tol = rel * std::max(g.scale, length);
+              if (!((lo.array() <= g.hi.array() + tol).all() &&
+                    (hi.array() >= g.lo.array() - tol).all()))
+                continue;
+              const SegmentClip clip = clip_segment_tet(p0, p1, g, tol);
+              if (clip.hit)
+                hits.push_back({{edge, tet, clip.lambda_in, clip.lambda_out}, tol / length});
+            }
+            const std::size_t first = part.size();
+            for (const EdgeHit& h : hits) {
+              // An edge in a face (or along an edge) shared by several tets is inside each over
+              // the same interval: the first tet only, as for tet-tet pairs.
+              bool repeated = false;
+              for (std::size_t k = first; k < part.size() && !repeated; ++k)
+                repeated = std::abs(part[k].lambda_in - h.edge.lambda_in) <= h.dl &&
+                           std::abs(part[k].lambda_out - h.edge.lambda_out) <= h.dl;
+              if (!repeated) part.push_back(h.edge);
+            }
+          }
+        });
+    for (const auto& part : parts)
+      out.edges_in_tets.insert(out.edges_in_tets.end(), part.begin(), part.end());
+  }
+  return out;
+}
+
+}  // namespace tc
