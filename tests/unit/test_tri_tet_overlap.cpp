@@ -37,33 +37,44 @@ bool overlap(const TriangleCorners& t, const TetCorners& k) {
 /// outside or on the boundary. Facets are found by brute force: every plane through three
 /// of the 12 points with all 12 on one side. A flat hull (coplanar contact) gives 0.
 double hull_depth(const TriangleCorners& t, const TetCorners& k) {
-  std::vector<Vector3d> p;
-  for (const Vector3d& kj : k)
-    for (const Vector3d& ti : t) p.push_back(kj - ti);
+  // Plain arrays: this runs 2,700 x 220 planes, also under ASan at -O1.
+  double p[12][3];
   double size = 0.0;
-  for (const Vector3d& x : p) size = std::max(size, x.cwiseAbs().maxCoeff());
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 3; ++i)
+      for (int d = 0; d < 3; ++d) {
+        p[3 * j + i][d] = k[j][d] - t[i][d];
+        size = std::max(size, std::abs(p[3 * j + i][d]));
+      }
   const double eps = 1e-12 * size;
   double best = std::numeric_limits<double>::infinity();
   bool any = false;
-  for (std::size_t a = 0; a < p.size(); ++a)
-    for (std::size_t b = a + 1; b < p.size(); ++b)
-      for (std::size_t c = b + 1; c < p.size(); ++c) {
-        Vector3d n = (p[b] - p[a]).cross(p[c] - p[a]);
-        if (n.norm() <= 1e-10 * size * size) continue;
-        n.normalize();
+  for (int a = 0; a < 12; ++a)
+    for (int b = a + 1; b < 12; ++b)
+      for (int c = b + 1; c < 12; ++c) {
+        const double u[3] = {p[b][0] - p[a][0], p[b][1] - p[a][1], p[b][2] - p[a][2]};
+        const double v[3] = {p[c][0] - p[a][0], p[c][1] - p[a][1], p[c][2] - p[a][2]};
+        double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                       u[0] * v[1] - u[1] * v[0]};
+        const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len <= 1e-10 * size * size) continue;
+        for (double& x : n) x /= len;
         double hi = -std::numeric_limits<double>::infinity();
         double lo = std::numeric_limits<double>::infinity();
-        for (const Vector3d& x : p) {
-          hi = std::max(hi, n.dot(x - p[a]));
-          lo = std::min(lo, n.dot(x - p[a]));
+        for (int q = 0; q < 12 && !(hi > eps && lo < -eps); ++q) {
+          const double s =
+              n[0] * (p[q][0] - p[a][0]) + n[1] * (p[q][1] - p[a][1]) + n[2] * (p[q][2] - p[a][2]);
+          hi = std::max(hi, s);
+          lo = std::min(lo, s);
         }
+        const double offset = n[0] * p[a][0] + n[1] * p[a][1] + n[2] * p[a][2];
         // All on the negative side: outward normal n; on the positive side: -n.
         if (hi <= eps) {
-          best = std::min(best, n.dot(p[a]));
+          best = std::min(best, offset);
           any = true;
         }
         if (lo >= -eps) {
-          best = std::min(best, -n.dot(p[a]));
+          best = std::min(best, -offset);
           any = true;
         }
       }
@@ -87,10 +98,20 @@ double clearance(const Vector3d& x, const TetCorners& k) {
 /// Largest clearance over a barycentric lattice of the triangle: a lower bound of the
 /// penetration depth (the triangle must move at least that far to clear the tet).
 double sampled_depth(const TriangleCorners& t, const TetCorners& k, int n = 16) {
+  Vector3d normal[4], origin[4];
+  for (int f = 0; f < 4; ++f) {
+    origin[f] = k[(f + 1) % 4];
+    normal[f] = (k[(f + 2) % 4] - origin[f]).cross(k[(f + 3) % 4] - origin[f]).normalized();
+    if (normal[f].dot(k[f] - origin[f]) < 0.0) normal[f] = -normal[f];
+  }
   double best = -std::numeric_limits<double>::infinity();
   for (int i = 0; i <= n; ++i)
-    for (int j = 0; i + j <= n; ++j)
-      best = std::max(best, clearance((i * t[0] + j * t[1] + (n - i - j) * t[2]) / n, k));
+    for (int j = 0; i + j <= n; ++j) {
+      const Vector3d x = (i * t[0] + j * t[1] + (n - i - j) * t[2]) / n;
+      double c = std::numeric_limits<double>::infinity();
+      for (int f = 0; f < 4; ++f) c = std::min(c, normal[f].dot(x - origin[f]));
+      best = std::max(best, c);
+    }
   return best;
 }
 
@@ -121,7 +142,7 @@ TriangleCorners random_triangle(std::mt19937& rng, const TetCorners& k) {
 TEST(TriTetOverlap, RandomPairsAgreeWithTheHullOracle) {
   std::mt19937 rng(19);
   int overlapping = 0, disjoint = 0;
-  for (int iter = 0; iter < 1500; ++iter) {
+  for (int iter = 0; iter < 1000; ++iter) {
     const TetCorners k = random_tet(rng, 0.05);
     const TriangleCorners t = random_triangle(rng, k);
     const double depth = hull_depth(t, k);
@@ -144,8 +165,8 @@ TEST(TriTetOverlap, RandomPairsAgreeWithTheHullOracle) {
     for (const double tol : {0.0, 1e-9 * scale, 1e-3 * scale})
       EXPECT_EQ(triangle_tet_overlap(t, k, tol), pen > tol) << "iteration " << iter;
   }
-  EXPECT_GT(overlapping, 300);
-  EXPECT_GT(disjoint, 300);
+  EXPECT_GT(overlapping, 250);
+  EXPECT_GT(disjoint, 500);
 }
 
 TEST(TriTetOverlap, DegenerateTrianglesAndFlatTetsAgreeWithTheHullOracle) {
