@@ -1,9 +1,11 @@
-// Fuzz target: the Gmsh reader (MSH 2.2 ASCII, 4.1 ASCII and binary). The input is the
-// file's content. Every input must give a mesh or an error with a message; a mesh that
-// comes back has consistent sizes and in-range tet indices unless validation says so.
+// Fuzz target: the Gmsh reader (MSH 2.2 ASCII, 4.1 ASCII and binary), read as tets, as 2D
+// triangles and as a 3D surface. The input is the file's content. Every input must give a
+// mesh or an error with a message; a mesh that comes back has consistent sizes and
+// in-range indices unless validation says so.
 #include <cstdint>
 
 #include "core/io/mesh_io.hpp"
+#include "core/io/surface_io.hpp"
 #include "core/mesh/validate.hpp"
 #include "fuzz_input.hpp"
 
@@ -25,6 +27,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       for (const tc::Index i : t) TC_FUZZ_CHECK(i >= 0 && i < tris->positions.cols());
   } else {
     TC_FUZZ_CHECK(!tris.error().message.empty());
+  }
+  // The same file as a 3D surface (triangles and no tets).
+  if (auto surface = tc::read_gmsh_surface_buffer(text, "fuzz.msh")) {
+    TC_FUZZ_CHECK(surface->num_triangles() > 0);
+    const tc::SurfaceValidationReport report = tc::validate_surface(*surface);
+    TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
+    TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+  } else {
+    TC_FUZZ_CHECK(surface.error().message.rfind("fuzz.msh", 0) == 0);
   }
   return 0;
 }

@@ -11,6 +11,7 @@ import struct
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MESHES = ROOT / "tests" / "data" / "meshes"
+SURFACES = ROOT / "tests" / "data" / "surfaces"
 CORPUS = ROOT / "fuzz" / "corpus"
 MAX_SEED = 12 * 1024  # larger files only slow the fuzzer down
 
@@ -28,6 +29,32 @@ def gmsh():
     for f in sorted(MESHES.glob("*.msh")):
         if f.stat().st_size <= MAX_SEED:
             shutil.copy(f, d / f.name)
+
+
+def stl():
+    d = fresh("stl")
+    for f in sorted(SURFACES.glob("*.stl")):
+        if 0 < f.stat().st_size <= MAX_SEED:
+            shutil.copy(f, d / f.name)
+    # One facet, binary, with a header that begins with "solid" (binary by its size).
+    tri = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    rec = struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *p) for p in tri) + b"\0\0"
+    (d / "one_solid_bin.stl").write_bytes(b"solid one".ljust(80, b" ") + struct.pack("<I", 1) + rec)
+    (d / "two_solids.stl").write_text(
+        "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+        "endloop\nendfacet\nendsolid a\nSOLID B\nFACET NORMAL 0 0 -1\nOUTER LOOP\n"
+        "VERTEX 0 0 0\nVERTEX 0 1 0\nVERTEX 1 0 0\nENDLOOP\nENDFACET\nENDSOLID B\n")
+
+
+def obj():
+    d = fresh("obj")
+    for f in sorted(SURFACES.glob("*.obj")):
+        if 0 < f.stat().st_size <= MAX_SEED:
+            shutil.copy(f, d / f.name)
+    (d / "forms.obj").write_text(
+        "v 0 0 0\nv 1 0 0 1\nv 0 1 0 0.5 0.5 0.5\nv 1 1 0\nvt 0 0\nvn 0 0 1\n"
+        "f 1/1/1 2/1/1 4/1/1 3/1/1\nf 1//1 2//1 3//1\nf 1/1 2/1 3/1\nf -4 -3 -1\n"
+        "f 4 3 2 # late comment\n")
 
 
 def tetgen():
@@ -134,6 +161,8 @@ def recording():
 
 if __name__ == "__main__":
     gmsh()
+    stl()
+    obj()
     tetgen()
     mesh()
     samples()

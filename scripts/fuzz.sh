@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every libFuzzer target of build/asan-ubsan for FUZZ_SECONDS each (default 60) and prints
 # a summary: runs, execs/s, coverage (libFuzzer's cov/ft counters), corpus size, result.
-# Usage: scripts/fuzz.sh [target...]   (default: all six; `make fuzz`, `make fuzz-short`)
+# Usage: scripts/fuzz.sh [target...]   (default: all eight; `make fuzz`, `make fuzz-short`)
 # Env:   FUZZ_SECONDS, FUZZ_BUILD (default build/asan-ubsan).
 # The working corpus grows in $FUZZ_BUILD/corpus/<target> (seeded read-only from
 # fuzz/corpus/<target>); a crash, hang (> 10 s per input) or leak leaves its input in
@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-60}
 build=${FUZZ_BUILD:-build/asan-ubsan}
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(gmsh tetgen mesh samples config recording)
+[ ${#targets[@]} -eq 0 ] && targets=(gmsh stl obj tetgen mesh samples config recording)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 failed=0
