@@ -51,8 +51,8 @@ struct SurfaceValidationOptions {
   /// Quality (triangle_quality()) below this is a degenerate, zero-area triangle: the
   /// tolerance is relative to the triangle's own size, as for tets (ValidationOptions).
   double degenerate_quality = 1e-6;
-  /// Counts above these are oversized (kOversized): the daemon's limits.max_nodes and
-  /// the IDL bounds of a topology sample.
+  /// Counts above these are oversized (kOversized). Defaults: the daemon's default
+  /// limits.max_nodes and limits.max_tets (the IDL bounds of a tet topology).
   std::int64_t max_nodes = 1'000'000;
   std::int64_t max_triangles = 6'000'000;
   /// How many offending indices each list keeps.
