@@ -9,6 +9,7 @@
 
 #include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 
+#include "core/common/target_clones.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -527,9 +528,8 @@ bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double t
 
 // One copy for AVX2 and one for the x86-64 baseline, picked at load time; both give the
 // same bits (the same IEEE operations per lane, no FMA: "avx2" does not enable it).
-__attribute__((target_clones("avx2", "default"))) bool tets_overlap(const TetGeometry& a,
-                                                                    const TetGeometry& b,
-                                                                    double tolerance) {
+TC_TARGET_CLONES_AVX2 bool tets_overlap(const TetGeometry& a, const TetGeometry& b,
+                                        double tolerance) {
   // Flat (or non-finite) tets take the reference's every-edge-pair path.
   if (a.flat || b.flat) return tets_overlap_reference(a, b, tolerance);
   return FastSat(a, b, std::max(tolerance, 0.0)).run();
@@ -589,8 +589,9 @@ SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::V
   return out;
 }
 
-__attribute__((target_clones("avx2", "default"))) SegmentClip clip_segment_tet(
-    const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const TetGeometry& t, double tolerance) {
+TC_TARGET_CLONES_AVX2 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0,
+                                                   const Eigen::Vector3d& p1, const TetGeometry& t,
+                                                   double tolerance) {
   return clip_lanes(p0, p1, t, tolerance);
 }
 

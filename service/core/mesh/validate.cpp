@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/common/parallel_chunks.hpp"
+#include "core/common/target_clones.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/spatial_order.hpp"
 
@@ -51,11 +52,8 @@ namespace detail {
 /// as well; the others take tet_quality() itself, so the report does not depend on this
 /// test's bits. The lanes are plain loops the compiler vectorises, once for AVX2 and once
 /// for the x86-64 baseline; one tet at a time the loop was latency-bound (~70 cycles).
-#if defined(__x86_64__)
-__attribute__((target_clones("avx2", "default")))
-#endif
-unsigned
-surely_not_slivers(const double* x, const Tet* tets, double s2_margin) {
+TC_TARGET_CLONES_AVX2
+unsigned surely_not_slivers(const double* x, const Tet* tets, double s2_margin) {
   double a[3][kLanes], b[3][kLanes], c[3][kLanes], l2[kLanes] = {};
   for (int l = 0; l < kLanes; ++l) {
     const Tet& t = tets[l];
