@@ -10,6 +10,7 @@
 #include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 
 #include "core/common/target_clones.hpp"
+#include "core/detect/exact_vec3.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -43,15 +44,8 @@ inline bool arcs_disjoint(double s1, double s2, double s3, double s4) {
          (s1 * s4 < 0.0 && clear(s1, s4));
 }
 
-/// Scalar dot and cross products: Eigen's packet code for unaligned 3-vectors spends
-/// more time shuffling than multiplying in these small hot loops.
-inline double dot3(const Vector3d& a, const Vector3d& b) {
-  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
-}
-inline Vector3d cross3(const Vector3d& a, const Vector3d& b) {
-  return {a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(),
-          a.x() * b.y() - a.y() * b.x()};
-}
+using detail::cross3;
+using detail::dot3;
 
 /// Any direction perpendicular to a non-zero e.
 Vector3d any_perpendicular(const Vector3d& e) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/detect/exact_vec3.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -16,14 +17,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// |n| <= kFlat L^2: the triangle is degenerate up to rounding (as tets: 6|V| <= kFlat L^3).
 constexpr double kFlat = 32.0 * kEps;
 
-/// Scalar products in a fixed order, as in tet_overlap.cpp ((x X + y Y) + z Z).
-inline double dot3(const Vector3d& a, const Vector3d& b) {
-  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
-}
-inline Vector3d cross3(const Vector3d& a, const Vector3d& b) {
-  return {a.y() * b.z() - a.z() * b.y(), a.z() * b.x() - a.x() * b.z(),
-          a.x() * b.y() - a.y() * b.x()};
-}
+using detail::cross3;
+using detail::dot3;
 
 /// A direction perpendicular to a non-zero e (e crossed with its smallest coordinate axis).
 Vector3d any_perpendicular(const Vector3d& e) {

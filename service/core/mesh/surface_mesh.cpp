@@ -8,14 +8,6 @@
 namespace tc {
 namespace {
 
-void append(std::ostringstream& out, const DefectList& list, const char* what) {
-  if (list.count == 0) return;
-  if (out.tellp() > 0) out << "; ";
-  out << list.count << ' ' << what << " (first:";
-  for (std::size_t i = 0; i < list.first.size(); ++i) out << (i ? ", " : " ") << list.first[i];
-  out << ')';
-}
-
 /// Root of `i` in a union-find forest, halving paths on the way.
 Index find_root(std::vector<Index>& parent, Index i) {
   while (parent[static_cast<std::size_t>(i)] != i) {
@@ -44,10 +36,10 @@ std::string SurfaceValidationReport::summary() const {
     if (out.tellp() > 0) out << "; ";
     out << triangles << " triangles, more than the limit";
   }
-  append(out, index_out_of_range, "triangles with a node index out of range");
-  append(out, repeated_node, "triangles with a repeated node");
-  append(out, nonfinite_node, "nodes with non-finite coordinates");
-  append(out, degenerate, "degenerate (zero-area) triangles");
+  append_defects(out, index_out_of_range, "triangles with a node index out of range");
+  append_defects(out, repeated_node, "triangles with a repeated node");
+  append_defects(out, nonfinite_node, "nodes with non-finite coordinates");
+  append_defects(out, degenerate, "degenerate (zero-area) triangles");
   return out.str();
 }
 

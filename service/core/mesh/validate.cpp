@@ -17,14 +17,6 @@
 namespace tc {
 namespace {
 
-void append(std::ostringstream& out, const DefectList& list, const char* what) {
-  if (list.count == 0) return;
-  if (out.tellp() > 0) out << "; ";
-  out << list.count << ' ' << what << " (first:";
-  for (std::size_t i = 0; i < list.first.size(); ++i) out << (i ? ", " : " ") << list.first[i];
-  out << ')';
-}
-
 /// Tets per chunk of the parallel shape check: large enough that a chunk's fixed cost
 /// vanishes, small enough that 2 threads share a 300k-tet object evenly.
 constexpr std::size_t kShapeChunk = 8192;
@@ -163,14 +155,22 @@ void check_coordinates(const Positions& p, const ValidationOptions& opt, Validat
 
 }  // namespace
 
+void append_defects(std::ostringstream& out, const DefectList& list, const char* what) {
+  if (list.count == 0) return;
+  if (out.tellp() > 0) out << "; ";
+  out << list.count << ' ' << what << " (first:";
+  for (std::size_t i = 0; i < list.first.size(); ++i) out << (i ? ", " : " ") << list.first[i];
+  out << ')';
+}
+
 std::string ValidationReport::summary() const {
   std::ostringstream out;
-  append(out, index_out_of_range, "tets with a node index out of range");
-  append(out, repeated_node, "tets with a repeated node");
-  append(out, nonfinite_node, "nodes with non-finite coordinates");
-  append(out, degenerate, "degenerate (zero-volume) tets");
-  append(out, inverted, "inverted tets");
-  append(out, sliver, "sliver tets");
+  append_defects(out, index_out_of_range, "tets with a node index out of range");
+  append_defects(out, repeated_node, "tets with a repeated node");
+  append_defects(out, nonfinite_node, "nodes with non-finite coordinates");
+  append_defects(out, degenerate, "degenerate (zero-volume) tets");
+  append_defects(out, inverted, "inverted tets");
+  append_defects(out, sliver, "sliver tets");
   return out.str();
 }
 

@@ -1,6 +1,7 @@
 // Mesh validation: what is wrong, how often, and where first.
 #pragma once
 
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,10 @@ struct DefectList {
     ++count;
   }
 };
+
+/// Appends "N what (first: i, j)" to `out`, after "; " when `out` is not empty; nothing
+/// for an empty list. The one line format of every validation summary.
+void append_defects(std::ostringstream& out, const DefectList& list, const char* what);
 
 struct ValidationReport {
   DefectList index_out_of_range;  ///< tets with a node index outside [0, n)
