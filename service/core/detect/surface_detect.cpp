@@ -322,4 +322,18 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
   return out;
 }
 
+PairContacts to_pair_contacts(SurfaceContacts contacts, bool surface_is_a) {
+  PairContacts out;
+  out.overlapping.reserve(contacts.overlapping.size());
+  for (const TriTetPair& p : contacts.overlapping)
+    out.overlapping.push_back(surface_is_a ? TetPair{p.triangle, p.tet}
+                                           : TetPair{p.tet, p.triangle});
+  if (!surface_is_a) std::sort(out.overlapping.begin(), out.overlapping.end());
+  (surface_is_a ? out.marked_a : out.marked_b) = std::move(contacts.marked_triangles);
+  (surface_is_a ? out.marked_b : out.marked_a) = std::move(contacts.marked_tets);
+  (surface_is_a ? out.nodes_a_in_b : out.nodes_b_in_a) = std::move(contacts.nodes_in_tets);
+  (surface_is_a ? out.edges_a_in_b : out.edges_b_in_a) = std::move(contacts.edges_in_tets);
+  return out;
+}
+
 }  // namespace tc

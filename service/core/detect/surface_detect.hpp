@@ -69,4 +69,11 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
                                     const DetectOptions& options = {},
                                     SurfaceDetectStats* stats = nullptr);
 
+/// The contacts of a (surface, tet object) pair in the form the response reads
+/// (ResponseAccumulator::compute): the surface is A when surface_is_a, else B. Its nodes
+/// and edges in tets become nodes_a_in_b / edges_a_in_b (or the b_in_a lists), its
+/// marked triangles marked_a (or marked_b), and the overlapping pairs are
+/// (triangle, tet) (or (tet, triangle)), sorted; the other direction's lists stay empty.
+PairContacts to_pair_contacts(SurfaceContacts contacts, bool surface_is_a);
+
 }  // namespace tc

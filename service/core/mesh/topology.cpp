@@ -338,4 +338,18 @@ Index boundary_euler_characteristic(const Topology& topo) {
          static_cast<Index>(topo.boundary_faces.size());
 }
 
+Topology build_edge_topology(std::span<const std::array<Index, 2>> edges, Index num_nodes) {
+  Topology topo;
+  topo.num_nodes = num_nodes;
+  topo.edges.assign(edges.begin(), edges.end());
+  std::vector<std::pair<Index, Index>> adjacency;
+  adjacency.reserve(2 * edges.size());
+  for (const auto& e : edges) {
+    adjacency.emplace_back(e[0], e[1]);
+    adjacency.emplace_back(e[1], e[0]);
+  }
+  topo.node_adjacency = build_csr(num_nodes, adjacency);
+  return topo;
+}
+
 }  // namespace tc

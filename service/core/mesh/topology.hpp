@@ -63,6 +63,14 @@ struct Topology {
   Index nonmanifold_faces = 0;
 };
 
+/// The topology of an object with edges and no tets (a triangle surface: the edges of
+/// build_surface_edges()): num_nodes, `edges` as given and `node_adjacency`; every
+/// tet-derived list is empty and num_tets is 0. The response reads nothing else of an
+/// intruding object (node weights, segment ends).
+/// @param[in] edges      unique edges (a, b), a < b, sorted; indices in [0, num_nodes)
+/// @param[in] num_nodes  n.
+Topology build_edge_topology(std::span<const std::array<Index, 2>> edges, Index num_nodes);
+
 /// Builds the topology of m tets over n nodes.
 ///
 /// @param[in] tets       m tets; every index must be in [0, num_nodes) (validate first).

@@ -12,6 +12,7 @@
 #include <span>
 
 #include "core/detect/contacts.hpp"
+#include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/scene/scene.hpp"
@@ -109,6 +110,13 @@ struct ResponseObject {
   std::span<const Index> anchor;          ///< n anchors (DepthSolver::anchor()), or empty:
                                           ///< then only the faces around the tet's own
                                           ///< nodes are nearest-face candidates
+  /// A surface object (docs/SURFACES.md): its k triangles, with `tets`, `depth` and
+  /// `anchor` empty and `topology` = build_edge_topology() of its edges. A surface has no
+  /// depth map, so it only intrudes: its vertices and edges are pushed out of the tet
+  /// object, nothing of the tet object is pushed out of it.
+  std::span<const Triangle> triangles;
+
+  [[nodiscard]] bool is_surface() const { return tets.empty() && !triangles.empty(); }
 };
 
 /// How a contact's push-out direction was found.

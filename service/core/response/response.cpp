@@ -33,13 +33,24 @@ Status validate_object(const ResponseObject& o, const char* name) {
   if (static_cast<std::size_t>(o.topology->num_nodes) != n)
     return invalid(who + ": topology has " + std::to_string(o.topology->num_nodes) +
                    " nodes, positions have " + std::to_string(n));
-  if (static_cast<std::size_t>(o.topology->num_tets) != o.tets.size() ||
-      o.topology->tet_neighbors.size() != o.tets.size())
-    return invalid(who + ": topology has " + std::to_string(o.topology->num_tets) +
-                   " tets, the tet list has " + std::to_string(o.tets.size()));
-  if (o.depth.size() != n)
-    return invalid(who + ": depth has " + std::to_string(o.depth.size()) + " values for " +
-                   std::to_string(n) + " nodes");
+  if (o.is_surface()) {
+    if (o.topology->num_tets != 0 || !o.topology->tet_neighbors.empty())
+      return invalid(who +
+                     ": a surface's topology has no tets (build_edge_topology), this one has " +
+                     std::to_string(o.topology->num_tets));
+    if (!o.depth.empty() || !o.anchor.empty())
+      return invalid(who + ": a surface has no depth map, but depth has " +
+                     std::to_string(o.depth.size()) + " values and anchor " +
+                     std::to_string(o.anchor.size()));
+  } else {
+    if (static_cast<std::size_t>(o.topology->num_tets) != o.tets.size() ||
+        o.topology->tet_neighbors.size() != o.tets.size())
+      return invalid(who + ": topology has " + std::to_string(o.topology->num_tets) +
+                     " tets, the tet list has " + std::to_string(o.tets.size()));
+    if (o.depth.size() != n)
+      return invalid(who + ": depth has " + std::to_string(o.depth.size()) + " values for " +
+                     std::to_string(n) + " nodes");
+  }
   if (!o.anchor.empty() && o.anchor.size() != n)
     return invalid(who + ": anchor has " + std::to_string(o.anchor.size()) + " values for " +
                    std::to_string(n) + " nodes");
@@ -59,11 +70,14 @@ Status validate_options(const ResponseOptions& o) {
   return {};
 }
 
-Status validate_marked(std::span<const Index> marked, std::size_t tets, const char* list) {
+/// Marked cells of an object: its triangles for a surface, else its tets.
+Status validate_marked(std::span<const Index> marked, const ResponseObject& o, const char* list) {
+  const std::size_t cells = o.is_surface() ? o.triangles.size() : o.tets.size();
+  const char* noun = o.is_surface() ? "]: triangle " : "]: tet ";
   for (std::size_t i = 0; i < marked.size(); ++i)
-    if (marked[i] < 0 || static_cast<std::size_t>(marked[i]) >= tets)
-      return invalid(std::string("response: ") + list + "[" + std::to_string(i) + "]: tet " +
-                     range_text(marked[i], tets));
+    if (marked[i] < 0 || static_cast<std::size_t>(marked[i]) >= cells)
+      return invalid(std::string("response: ") + list + "[" + std::to_string(i) + noun +
+                     range_text(marked[i], cells));
   return {};
 }
 
@@ -101,7 +115,8 @@ Status validate_edges(std::span<const IntrudingEdge> list, std::size_t edges, st
   return {};
 }
 
-/// Box, centre and (when asked) RMS edge length of an object's contact tets.
+/// Box, centre and (when asked) RMS edge length of an object's contact cells (tets, or
+/// triangles of a surface).
 struct ContactRegion {
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
@@ -110,7 +125,13 @@ struct ContactRegion {
   bool empty = true;
 };
 
-ContactRegion contact_region(const ResponseObject& o, std::span<const Index> marked, bool edges) {
+/// K = 4 (tets) or 3 (triangles); the edges are the K (K - 1) / 2 corner pairs (i < j)
+/// in kTetEdges' order.
+template <std::size_t K>
+ContactRegion contact_region_of(const Positions& positions,
+                                std::span<const std::array<Index, K>> cells,
+                                std::span<const Index> marked, bool edges) {
+  constexpr std::size_t kEdges = K * (K - 1) / 2;
   ContactRegion region;
   // Estimates, not exact values: a deterministic stride over at most ~1024 tets for the
   // box and centre and ~256 for the RMS edge length keeps this pass cheaper than the
@@ -118,28 +139,38 @@ ContactRegion contact_region(const ResponseObject& o, std::span<const Index> mar
   const std::size_t box_stride = std::max<std::size_t>(1, marked.size() / 1024);
   const std::size_t stride = std::max<std::size_t>(1, marked.size() / 256);
   double edge_sum = 0.0;
-  std::size_t count = 0, edge_tets = 0;
+  std::size_t count = 0, edge_cells = 0;
   for (std::size_t i = 0; i < marked.size(); i += box_stride) {
-    const Tet& tet = o.tets[static_cast<std::size_t>(marked[i])];
-    const std::array<Vec3, 4> x = {o.positions->col(tet[0]), o.positions->col(tet[1]),
-                                   o.positions->col(tet[2]), o.positions->col(tet[3])};
-    const Vec3 sum = x[0] + x[1] + x[2] + x[3];
+    const std::array<Index, K>& cell = cells[static_cast<std::size_t>(marked[i])];
+    std::array<Vec3, K> x;
+    for (std::size_t k = 0; k < K; ++k) x[k] = positions.col(cell[k]);
+    Vec3 sum = x[0];
+    for (std::size_t k = 1; k < K; ++k) sum += x[k];
     if (!sum.allFinite()) continue;
-    region.lo = region.lo.cwiseMin(x[0].cwiseMin(x[1]).cwiseMin(x[2].cwiseMin(x[3])));
-    region.hi = region.hi.cwiseMax(x[0].cwiseMax(x[1]).cwiseMax(x[2].cwiseMax(x[3])));
-    region.centre += 0.25 * sum;
+    for (std::size_t k = 0; k < K; ++k) {  // min and max are exact: any order
+      region.lo = region.lo.cwiseMin(x[k]);
+      region.hi = region.hi.cwiseMax(x[k]);
+    }
+    region.centre += (1.0 / static_cast<double>(K)) * sum;
     ++count;
     if (edges && (i / box_stride) % std::max<std::size_t>(1, stride / box_stride) == 0) {
-      for (const auto& e : kTetEdges) edge_sum += (x[e[0]] - x[e[1]]).squaredNorm();
-      ++edge_tets;
+      for (std::size_t j = 0; j < K; ++j)
+        for (std::size_t k = j + 1; k < K; ++k) edge_sum += (x[j] - x[k]).squaredNorm();
+      ++edge_cells;
     }
   }
   if (count > 0) {
     region.empty = false;
     region.centre /= static_cast<double>(count);
   }
-  if (edge_tets > 0) region.rms_edge = std::sqrt(edge_sum / (6.0 * static_cast<double>(edge_tets)));
+  if (edge_cells > 0)
+    region.rms_edge = std::sqrt(edge_sum / (static_cast<double>(kEdges * edge_cells)));
   return region;
+}
+
+ContactRegion contact_region(const ResponseObject& o, std::span<const Index> marked, bool edges) {
+  if (o.is_surface()) return contact_region_of<3>(*o.positions, o.triangles, marked, edges);
+  return contact_region_of<4>(*o.positions, o.tets, marked, edges);
 }
 
 ContactDensity density_of(const ContactRegion& x, const ContactRegion& y) {
@@ -268,8 +299,15 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   if (contacts.nodes_a_in_b.empty() && contacts.nodes_b_in_a.empty() &&
       contacts.edges_a_in_b.empty() && contacts.edges_b_in_a.empty())
     return {};  // no overlap: nothing to do
-  if (Status s = validate_marked(contacts.marked_a, a.tets.size(), "marked_a"); !s) return s;
-  if (Status s = validate_marked(contacts.marked_b, b.tets.size(), "marked_b"); !s) return s;
+  if (a.is_surface() && b.is_surface())
+    return invalid("response: A and B are both surfaces: two surfaces are never tested");
+  // A surface has no depth map: nothing can be pushed out of it.
+  if (a.is_surface() && !(contacts.nodes_b_in_a.empty() && contacts.edges_b_in_a.empty()))
+    return invalid("response: A is a surface (no depth map), but B has nodes or edges in it");
+  if (b.is_surface() && !(contacts.nodes_a_in_b.empty() && contacts.edges_a_in_b.empty()))
+    return invalid("response: B is a surface (no depth map), but A has nodes or edges in it");
+  if (Status s = validate_marked(contacts.marked_a, a, "marked_a"); !s) return s;
+  if (Status s = validate_marked(contacts.marked_b, b, "marked_b"); !s) return s;
 
   // kAuto measures the contact regions; other kinds skip that work.
   if (options.kind == ResponseKind::kAuto) {

@@ -67,8 +67,9 @@ struct PairResponse {
 
 /// What kAuto measures for the features of X entering Y.
 struct ContactDensity {
-  double rms_edge = 0.0;        ///< RMS edge length of X's contact tets (6 per tet), m
-  double contact_extent = 0.0;  ///< diagonal of bbox(X's contact tets) & bbox(Y's), m
+  double rms_edge = 0.0;        ///< RMS edge length of X's contact cells (6 per tet, 3 per
+                                ///< triangle of a surface), m
+  double contact_extent = 0.0;  ///< diagonal of bbox(X's contact cells) & bbox(Y's), m
 };
 
 /// Measures ContactDensity for X entering Y.
@@ -105,8 +106,13 @@ class ResponseAccumulator {
   /// @param[in]  options   response settings (validated: finite, non-negative).
   /// @param[out] out       overwritten (its vectors keep their capacity; object names are
   ///                       left as they are); blocks present iff stiffness_mode != kNone.
+  /// Either object may be a surface (ResponseObject::is_surface(), docs/SURFACES.md): it
+  /// has no depth map, so only its own nodes or edges in the other's tets are answered
+  /// (the lists of the other direction must be empty); its marked list holds triangles.
+  ///
   /// @return kInvalidArgument naming the array or the contact at fault (sizes that do
-  ///         not match, indices out of range, lambda outside [0, 1]); out is then empty.
+  ///         not match, indices out of range, lambda outside [0, 1], contacts pushing
+  ///         out of a surface, two surfaces); out is then empty.
   Status compute(const ResponseObject& a, const ResponseObject& b, const PairContacts& contacts,
                  const ResponseOptions& options, PairResponse& out);
 
