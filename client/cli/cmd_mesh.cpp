@@ -83,19 +83,11 @@ int surface_info(const MeshInfoArgs& args, const SurfaceMesh& mesh) {
 }
 
 int run_info(const MeshInfoArgs& args) {
-  if (is_surface_extension(args.file)) {
-    auto surface = read_surface(args.file);
-    if (!surface) return report_error(surface.error());
-    return surface_info(args, *surface);
-  }
-  auto mesh = read_mesh(args.file);
-  if (!mesh) return report_error(mesh.error());
-  if (mesh->num_tets() == 0) {
-    // A .msh with 3-node triangles and no tets is a surface; with neither, the tet
-    // report below (0 tets) says what the file holds.
-    auto surface = read_gmsh_surface(args.file);
-    if (surface) return surface_info(args, *surface);
-  }
+  auto object = read_object_mesh(args.file);
+  if (!object) return report_error(object.error());
+  if (const auto* surface = std::get_if<SurfaceMesh>(&*object)) return surface_info(args, *surface);
+  // A file with neither tets nor triangles gets the tet report (0 tets).
+  const TetMesh* mesh = &std::get<TetMesh>(*object);
   const ValidationReport report = validate_mesh(*mesh);
   if (report.structurally_invalid())
     return report_error(Error{ErrorCode::kInvalidMesh, args.file + ": " + report.summary()});

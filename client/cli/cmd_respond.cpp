@@ -4,17 +4,19 @@
 //  [--stiffness K]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
-// meshes, B optionally translated. --contacts lists the point contacts with the depth and
-// direction their forces used; --exact-check compares those depths with the exact
-// distance of each node to the other object's boundary (docs/RESPONSE.md).
+// meshes, B optionally translated. Either file may be a triangle surface (.stl, .obj, or
+// a .msh with triangles and no tets; docs/SURFACES.md), not both. --contacts lists the point
+// contacts with the depth and direction their forces used; --exact-check compares those depths with
+// the exact distance of each node to the other object's boundary (docs/RESPONSE.md).
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <map>
+#include <variant>
 
 #include "cli_common.hpp"
-#include "core/io/mesh_io.hpp"
+#include "core/io/surface_io.hpp"
 #include "core/scene/pipeline.hpp"
 
 namespace tc::cli {
@@ -54,20 +56,49 @@ double bbox_diagonal(const Positions& x) {
   return (x.rowwise().maxCoeff() - x.rowwise().minCoeff()).norm();
 }
 
+Positions& positions_of(ObjectMesh& m) {
+  return std::visit([](auto& mesh) -> Positions& { return mesh.positions; }, m);
+}
+
+const std::vector<std::int64_t>& node_ids_of(const ObjectMesh& m) {
+  return std::visit(
+      [](const auto& mesh) -> const auto& { return mesh.node_ids; }, m);
+}
+
+const char* kind_of(const ObjectMesh& m) {
+  return std::holds_alternative<SurfaceMesh>(m) ? "surface" : "tets";
+}
+
+/// Registers a tet mesh or a surface; errors are prefixed with the file.
+Status register_object(Pipeline& pipeline, const std::string& name, ObjectMesh mesh,
+                       const ObjectParams& params, const std::string& file) {
+  Status st = std::holds_alternative<SurfaceMesh>(mesh)
+                  ? pipeline.set_surface(name, 0, std::get<SurfaceMesh>(std::move(mesh)), params)
+                  : pipeline.set_topology(name, 0, std::get<TetMesh>(std::move(mesh)), params);
+  if (!st) return Error{st.error().code, file + ": " + st.error().message};
+  return {};
+}
+
 int run_respond(const RespondArgs& args) {
-  auto a = read_mesh(args.file_a);
+  auto a = read_object_mesh(args.file_a);
   if (!a) return report_error(a.error());
-  auto b = read_mesh(args.file_b);
+  auto b = read_object_mesh(args.file_b);
   if (!b) return report_error(b.error());
+  if (std::holds_alternative<SurfaceMesh>(*a) && std::holds_alternative<SurfaceMesh>(*b))
+    return report_error(Error{ErrorCode::kInvalidArgument,
+                              args.file_a + " and " + args.file_b +
+                                  " are both surfaces: a surface has no depth map, so two "
+                                  "surfaces are never tested against each other"});
   const auto scale = [](Positions& x, const std::vector<double>& s) {
     if (s.size() == 3) x = Eigen::Vector3d(s[0], s[1], s[2]).asDiagonal() * x;
   };
-  scale(a->positions, args.scale_a);
-  scale(b->positions, args.scale_b);
+  scale(positions_of(*a), args.scale_a);
+  scale(positions_of(*b), args.scale_b);
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d shift(args.move_b[0], args.move_b[1], args.move_b[2]);
-    b->positions.colwise() += shift;
+    positions_of(*b).colwise() += shift;
   }
+  const std::string kind_a = kind_of(*a), kind_b = kind_of(*b);
   ObjectParams params;
   params.stiffness = args.stiffness;
   params.response = args.response == "point"     ? ResponseKind::kPoint
@@ -82,18 +113,18 @@ int run_respond(const RespondArgs& args) {
   config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
                                                        : DepthEvaluation::kNearestFace;
   config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
-  const double diag_a = bbox_diagonal(a->positions), diag_b = bbox_diagonal(b->positions);
+  const double diag_a = bbox_diagonal(positions_of(*a)), diag_b = bbox_diagonal(positions_of(*b));
   Pipeline pipeline(config);
   std::vector<FrameObjectInput> states(2);
   states[0].object = "a";
-  states[0].positions = a->positions;
+  states[0].positions = positions_of(*a);
   states[1].object = "b";
-  states[1].positions = b->positions;
-  const std::vector<std::int64_t> ids_a = a->node_ids, ids_b = b->node_ids;
-  if (Status st = pipeline.set_topology("a", 0, std::move(*a), params); !st)
-    return report_error(Error{st.error().code, args.file_a + ": " + st.error().message});
-  if (Status st = pipeline.set_topology("b", 0, std::move(*b), params); !st)
-    return report_error(Error{st.error().code, args.file_b + ": " + st.error().message});
+  states[1].positions = positions_of(*b);
+  const std::vector<std::int64_t> ids_a = node_ids_of(*a), ids_b = node_ids_of(*b);
+  if (Status st = register_object(pipeline, "a", std::move(*a), params, args.file_a); !st)
+    return report_error(st.error());
+  if (Status st = register_object(pipeline, "b", std::move(*b), params, args.file_b); !st)
+    return report_error(st.error());
 
   FrameOutput output;
   std::vector<double> times, detect_ms, depth_ms, response_ms;
@@ -154,7 +185,8 @@ int run_respond(const RespondArgs& args) {
   }
   const double time_ms = median(times);
   if (args.json) {
-    nlohmann::json j = {{"contacts", output.stats.contacts},
+    nlohmann::json j = {{"kinds", {{"a", kind_a}, {"b", kind_b}}},
+                        {"contacts", output.stats.contacts},
                         {"total_force_a", {total_a.x(), total_a.y(), total_a.z()}},
                         {"total_force_b", {total_b.x(), total_b.y(), total_b.z()}},
                         {"max_depth", output.stats.max_depth},
@@ -175,6 +207,8 @@ int run_respond(const RespondArgs& args) {
     return kExitOk;
   }
   const FrameStats& s = output.stats;
+  if (kind_a == "surface" || kind_b == "surface")
+    std::printf("objects:           a %s, b %s\n", kind_a.c_str(), kind_b.c_str());
   std::printf("contacts:          %zu\n", s.contacts);
   std::printf("overlapping pairs: %zu (of %zu candidates)\n", s.overlapping_pairs,
               s.candidate_pairs);
@@ -204,8 +238,10 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   auto args = std::make_shared<RespondArgs>();
   auto* cmd = app.add_subcommand(
       "respond", "One frame of detection + lazy depth map + penalty response on two meshes");
-  cmd->add_option("FILE_A", args->file_a, "Mesh of object a")->required();
-  cmd->add_option("FILE_B", args->file_b, "Mesh of object b")->required();
+  cmd->add_option("FILE_A", args->file_a, "Mesh of object a (tets, or a surface: .stl, .obj, .msh)")
+      ->required();
+  cmd->add_option("FILE_B", args->file_b, "Mesh of object b (tets, or a surface: .stl, .obj, .msh)")
+      ->required();
   cmd->add_option("--move-b", args->move_b, "Translate b by DX DY DZ (metres)")->expected(3);
   cmd->add_option("--scale-a", args->scale_a, "Scale a by SX SY SZ about the origin (first)")
       ->expected(3);

@@ -591,3 +591,143 @@ TEST(Pipeline, ASmallToolInALargeObjectCostsWhatTheContactCosts) {
 
 }  // namespace
 }  // namespace tc
+
+// Surface objects (issue 19): a plate of triangles pressed into the box, through the
+// pipeline with its validation, pairing and response.
+namespace tc {
+namespace {
+
+SurfaceMesh plate(double z) {
+  SurfaceMesh s = test::square_surface(6, 0.6, z);
+  for (Eigen::Index i = 0; i < s.positions.cols(); ++i)
+    s.positions.col(i) += Eigen::Vector3d(0.2, 0.2, 0);
+  return s;
+}
+
+FrameObjectInput surface_state(const std::string& name, const SurfaceMesh& s) {
+  return {name, 0, s.positions, {}};
+}
+
+TEST(PipelineSurface, APlateInTheBoxIsPushedOutAndTheBoxTakesTheReactions) {
+  for (const ResponseKind kind :
+       {ResponseKind::kPoint, ResponseKind::kSegment, ResponseKind::kAuto}) {
+    PipelineConfig config;
+    config.compute_stiffness = true;
+    Pipeline pipeline(config);
+    ObjectParams params;
+    params.response = kind;
+    const TetMesh box = box_at(0.0);
+    const SurfaceMesh tool = plate(0.98);
+    ASSERT_TRUE(pipeline.set_topology("box", 0, box, params).ok());
+    const Status st = pipeline.set_surface("tool", 0, tool, params);
+    ASSERT_TRUE(st.ok()) << st.error().message;
+    EXPECT_TRUE(pipeline.is_surface("tool"));
+    EXPECT_FALSE(pipeline.is_surface("box"));
+    const std::vector<FrameObjectInput> states = {state_of("box", box),
+                                                  surface_state("tool", tool)};
+    const FrameOutput out = pipeline.run_frame(1, states);
+    ASSERT_TRUE(out.errors.empty()) << out.errors[0].error.message;
+    const ObjectForces* on_tool = forces_of(out, "tool");
+    ASSERT_NE(on_tool, nullptr);
+    ASSERT_NE(forces_of(out, "box"), nullptr);
+    EXPECT_EQ(on_tool->stiffness.size(), on_tool->nodes.size());
+    const Eigen::Vector3d f_tool = total(out, "tool"), f_box = total(out, "box");
+    EXPECT_GT(f_tool.z(), 0.0);
+    EXPECT_LT(std::hypot(f_tool.x(), f_tool.y()), 1e-9 * f_tool.z());
+    EXPECT_LT((f_tool + f_box).norm(), 1e-12 * f_tool.norm());
+    EXPECT_GT(out.stats.overlapping_pairs, 0u);
+    // Only the box has a depth map.
+    ASSERT_EQ(out.settled_by_object.size(), 1u);
+    EXPECT_EQ(out.settled_by_object[0].first, "box");
+
+    // Lifted clear of the box: nothing.
+    const SurfaceMesh lifted = plate(1.01);
+    const std::vector<FrameObjectInput> apart = {surface_state("tool", lifted)};
+    const FrameOutput none = pipeline.run_frame(2, apart);
+    EXPECT_TRUE(none.errors.empty());
+    EXPECT_TRUE(none.forces.empty());
+  }
+}
+
+TEST(PipelineSurface, BadSurfacesAndStatesAreRejectedWithTheirNames) {
+  Pipeline pipeline;
+  const TetMesh box = box_at(0.0);
+  ASSERT_TRUE(pipeline.set_topology("box", 0, box, {}).ok());
+  SurfaceMesh broken = plate(0.98);
+  broken.triangles[3] = {0, 0, 1};
+  Status st = pipeline.set_surface("tool", 0, broken, {});
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("object 'tool'"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("repeated node"), std::string::npos) << st.error().message;
+  EXPECT_FALSE(pipeline.has_object("tool"));
+  EXPECT_FALSE(pipeline.set_surface("tool", 0, SurfaceMesh{}, {}).ok());
+
+  const SurfaceMesh tool = plate(0.98);
+  ASSERT_TRUE(pipeline.set_surface("tool", 0, tool, {}).ok());
+  // NaN, a collapsed triangle, a wrong node count: that state is rejected, the box runs.
+  FrameObjectInput nan = surface_state("tool", tool);
+  nan.positions(1, 5) = std::numeric_limits<double>::quiet_NaN();
+  FrameObjectInput flat = surface_state("tool", tool);
+  flat.positions.col(1) = flat.positions.col(0);
+  FrameObjectInput short_state = surface_state("tool", tool);
+  short_state.positions.conservativeResize(3, 10);
+  for (const auto& [state, text] : {std::pair{nan, "non-finite"}, std::pair{flat, "degenerate"},
+                                    std::pair{short_state, "10 positions for 49 nodes"}}) {
+    const std::vector<FrameObjectInput> states = {state_of("box", box), state};
+    const FrameOutput out = pipeline.run_frame(1, states);
+    ASSERT_EQ(out.errors.size(), 1u);
+    EXPECT_EQ(out.errors[0].object, "tool");
+    EXPECT_NE(out.errors[0].error.message.find(text), std::string::npos)
+        << out.errors[0].error.message;
+    // The tool never had a valid state: left out, no pair.
+    EXPECT_EQ(out.left_out, std::vector<std::string>{"tool"});
+    EXPECT_TRUE(out.forces.empty());
+  }
+}
+
+TEST(PipelineSurface, TwoSurfacesAreNeverTested) {
+  Pipeline pipeline;
+  const SurfaceMesh s = plate(0.5);
+  ASSERT_TRUE(pipeline.set_surface("s1", 0, s, {}).ok());
+  ASSERT_TRUE(pipeline.set_surface("s2", 0, s, {}).ok());
+  const std::vector<FrameObjectInput> states = {surface_state("s1", s), surface_state("s2", s)};
+  const FrameOutput out = pipeline.run_frame(1, states);
+  EXPECT_TRUE(out.errors.empty());
+  EXPECT_TRUE(out.forces.empty());
+  EXPECT_EQ(out.stats.candidate_pairs, 0u);
+}
+
+TEST(PipelineSurface, BitIdenticalAcrossThreadCounts) {
+  const TetMesh box = box_at(0.0, 6);
+  SurfaceMesh tool = test::boundary_surface_of(test::ball_mesh(3, 0.3));
+  for (Eigen::Index i = 0; i < tool.positions.cols(); ++i)
+    tool.positions.col(i) += Eigen::Vector3d(0.5, 0.45, 1.1);
+  std::vector<ObjectForces> reference;
+  for (const int threads : {1, 2, 3, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    PipelineConfig config;
+    config.compute_stiffness = true;
+    Pipeline pipeline(config);
+    ASSERT_TRUE(pipeline.set_topology("box", 0, box, {}).ok());
+    ASSERT_TRUE(pipeline.set_surface("ball", 0, tool, {}).ok());
+    const std::vector<FrameObjectInput> states = {state_of("box", box),
+                                                  surface_state("ball", tool)};
+    const FrameOutput out = pipeline.run_frame(1, states);
+    ASSERT_TRUE(out.errors.empty());
+    ASSERT_EQ(out.forces.size(), 2u);
+    if (threads == 1) {
+      reference = out.forces;
+      continue;
+    }
+    for (std::size_t o = 0; o < 2; ++o) {
+      EXPECT_EQ(out.forces[o].nodes, reference[o].nodes);
+      for (std::size_t i = 0; i < reference[o].nodes.size(); ++i) {
+        EXPECT_EQ(out.forces[o].forces[i], reference[o].forces[i]);
+        EXPECT_EQ(out.forces[o].stiffness[i], reference[o].stiffness[i]);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tc

@@ -56,4 +56,9 @@ Expected<SurfaceMesh> read_obj_buffer(std::string_view data, const std::string& 
 Expected<SurfaceMesh> read_gmsh_surface(const std::filesystem::path& path);
 Expected<SurfaceMesh> read_gmsh_surface_buffer(std::string_view data, const std::string& name);
 
+/// A tet mesh or a surface, as `tetcollide respond` and `mesh info` take either: `.stl`
+/// and `.obj` are surfaces; other files go to read_mesh() (core/io/mesh_io.hpp), and a
+/// `.msh` that holds 3-node triangles and no tets is read as a surface.
+Expected<ObjectMesh> read_object_mesh(const std::filesystem::path& path);
+
 }  // namespace tc

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
 #include "core/io/surface_io.hpp"
 
@@ -430,6 +431,23 @@ Expected<SurfaceMesh> read_surface(const std::filesystem::path& path) {
                path.string() + ": unknown surface file extension " +
                    (ext.empty() ? std::string("(none)") : "'" + ext + "'") +
                    " (expected .stl, .obj or .msh)"};
+}
+
+Expected<ObjectMesh> read_object_mesh(const std::filesystem::path& path) {
+  if (is_surface_extension(path)) {
+    auto surface = read_surface(path);
+    if (!surface) return surface.error();
+    return ObjectMesh{std::move(*surface)};
+  }
+  auto mesh = read_mesh(path);
+  if (!mesh) return mesh.error();
+  if (mesh->num_tets() == 0) {
+    // A .msh with 3-node triangles and no tets is a surface; with neither, the empty tet
+    // mesh says what the file holds.
+    auto surface = read_gmsh_surface(path);
+    if (surface) return ObjectMesh{std::move(*surface)};
+  }
+  return ObjectMesh{std::move(*mesh)};
 }
 
 }  // namespace tc

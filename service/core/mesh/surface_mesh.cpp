@@ -45,18 +45,22 @@ std::string SurfaceValidationReport::summary() const {
 
 SurfaceValidationReport validate_surface(const SurfaceMesh& mesh,
                                          const SurfaceValidationOptions& options) {
+  return validate_surface(mesh.positions, mesh.triangles, options);
+}
+
+SurfaceValidationReport validate_surface(const Positions& p, std::span<const Triangle> triangles,
+                                         const SurfaceValidationOptions& options) {
   SurfaceValidationReport report;
-  report.nodes = mesh.positions.cols();
-  report.triangles = static_cast<std::int64_t>(mesh.triangles.size());
+  report.nodes = p.cols();
+  report.triangles = static_cast<std::int64_t>(triangles.size());
   report.too_many_nodes = report.nodes > options.max_nodes;
   report.too_many_triangles = report.triangles > options.max_triangles;
   if (report.oversized()) return report;
-  const Positions& p = mesh.positions;
-  const Index n = mesh.num_nodes();
+  const auto n = static_cast<Index>(p.cols());
   for (Index i = 0; i < n; ++i)
     if (!p.col(i).allFinite()) report.nonfinite_node.add(i, options.max_listed);
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const Triangle& tri = mesh.triangles[t];
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const Triangle& tri = triangles[t];
     const auto ti = static_cast<Index>(t);
     if (!std::all_of(tri.begin(), tri.end(), [n](Index v) { return v >= 0 && v < n; })) {
       report.index_out_of_range.add(ti, options.max_listed);

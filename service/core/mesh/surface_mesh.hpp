@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "core/common/result.hpp"
@@ -40,6 +41,9 @@ struct SurfaceMesh {
   [[nodiscard]] Index num_nodes() const { return static_cast<Index>(positions.cols()); }
   [[nodiscard]] Index num_triangles() const { return static_cast<Index>(triangles.size()); }
 };
+
+/// What an object is made of: tets, or a triangle surface.
+using ObjectMesh = std::variant<TetMesh, SurfaceMesh>;
 
 /// Scale-free shape quality of a triangle, 4 sqrt(3) A / (l01^2 + l12^2 + l20^2): 1 for
 /// the equilateral triangle, 0 for a collinear one (and when every edge has length 0).
@@ -86,6 +90,12 @@ struct SurfaceValidationReport {
 /// Checks counts, indices, coordinates and triangle shapes. Never throws, never fixes.
 /// When a count is over its limit nothing else is checked (the report says so).
 SurfaceValidationReport validate_surface(const SurfaceMesh& mesh,
+                                         const SurfaceValidationOptions& options = {});
+
+/// The same checks on positions (3 x n, metres) and triangles (k, 0-based) held apart:
+/// a frame's new positions against the registered triangles.
+SurfaceValidationReport validate_surface(const Positions& positions,
+                                         std::span<const Triangle> triangles,
                                          const SurfaceValidationOptions& options = {});
 
 /// Ok when the report is clean; else kOversized (counts) or kInvalidMesh (the defects),

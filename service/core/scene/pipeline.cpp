@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 #include "core/detect/detect.hpp"
+#include "core/detect/surface_detect.hpp"
 #include "core/distance/boundary_bvh.hpp"
 #include "core/distance/depth_solver.hpp"
 #include "core/mesh/topology.hpp"
@@ -35,14 +37,21 @@ const ValidationOptions kFrameValidation = [] {
 
 }  // namespace
 
-// One registered object: its topology-derived data (built in set_topology) and its
-// per-frame state.
+// One registered object: its topology-derived data (built in set_topology or
+// set_surface) and its per-frame state. A surface object has `surface` set, an empty
+// `mesh`, an edge topology and no body, check order or depth solver.
 struct SceneObject {
   std::string name;
   std::uint32_t version = 0;
   ObjectParams params;
   TetMesh mesh;  ///< tets, node ids, rest positions
   Topology topology;
+  /// A surface object: its triangles and their edges (nullopt for a tet object).
+  struct Surface {
+    SurfaceMesh mesh;
+    SurfaceEdges edges;
+  };
+  std::optional<Surface> surface;
   /// The tets along a Morton curve of their rest centroids, for the per-frame shape check.
   TetCheckOrder check_order;
   Positions positions;   ///< current frame's positions
@@ -56,16 +65,59 @@ struct SceneObject {
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
+
+  [[nodiscard]] Index num_nodes() const {
+    return surface ? surface->mesh.num_nodes() : mesh.num_nodes();
+  }
+  [[nodiscard]] Aabb box() const;
+  [[nodiscard]] ResponseObject response_view() const;
 };
+
+Aabb SceneObject::box() const {
+  if (!surface) return body->box();
+  Aabb box;  // the used nodes' box: unused nodes take part in nothing
+  for (const Triangle& t : surface->mesh.triangles)
+    for (const Index v : t) box.extend(positions.col(v));
+  return box;
+}
+
+ResponseObject SceneObject::response_view() const {
+  ResponseObject o;
+  o.positions = &positions;
+  o.topology = &topology;
+  o.velocities =
+      velocities.cols() == positions.cols() && velocities.size() != 0 ? &velocities : nullptr;
+  if (surface) {
+    o.triangles = surface->mesh.triangles;
+  } else {
+    o.tets = mesh.tets;
+    o.depth = depth->depth();
+    o.anchor = depth->anchor();
+  }
+  return o;
+}
 
 struct Pipeline::Impl {
   PipelineConfig config;
   std::map<std::string, std::unique_ptr<SceneObject>> objects;  // sorted by name
   Detector detector;
+  DetectOptions detect_options;  // the surface pairs' (the detector keeps its own)
   ResponseAccumulator accumulator;
   std::vector<PairContacts> contacts;  // per touching pair, reused
   PairResponse pair_response;
+
+  static Status check_params(const std::string& object, const ObjectParams& params);
 };
+
+Status Pipeline::Impl::check_params(const std::string& object, const ObjectParams& params) {
+  if (!(params.stiffness >= 0.0) || !std::isfinite(params.stiffness) || !(params.damping >= 0.0) ||
+      !std::isfinite(params.damping) || !(params.max_force >= 0.0) ||
+      !std::isfinite(params.max_force))
+    return Error{
+        ErrorCode::kInvalidArgument,
+        "object '" + object + "': stiffness, damping and max_force must be finite and >= 0"};
+  return {};
+}
 
 Pipeline::Pipeline(PipelineConfig config) : impl_(std::make_unique<Impl>()) {
   impl_->config = std::move(config);
@@ -78,6 +130,7 @@ Pipeline::Pipeline(PipelineConfig config) : impl_(std::make_unique<Impl>()) {
     options.broad_phase = *kind;
   }
   impl_->detector.set_options(options);
+  impl_->detect_options = options;
 }
 
 Pipeline::~Pipeline() = default;
@@ -87,12 +140,7 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
   const ValidationReport report = validate_mesh(mesh);
   if (Status st = require_valid(report, "object '" + object + "'"); !st) return st;
   if (mesh.tets.empty()) return Error{ErrorCode::kInvalidMesh, "object '" + object + "': no tets"};
-  if (!(params.stiffness >= 0.0) || !std::isfinite(params.stiffness) || !(params.damping >= 0.0) ||
-      !std::isfinite(params.damping) || !(params.max_force >= 0.0) ||
-      !std::isfinite(params.max_force))
-    return Error{
-        ErrorCode::kInvalidArgument,
-        "object '" + object + "': stiffness, damping and max_force must be finite and >= 0"};
+  if (Status st = Impl::check_params(object, params); !st) return st;
   auto slot = std::make_unique<SceneObject>();
   slot->name = object;
   slot->version = version;
@@ -116,6 +164,31 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
       });
   impl_->objects[object] = std::move(slot);
   return {};
+}
+
+Status Pipeline::set_surface(const std::string& object, std::uint32_t version, SurfaceMesh mesh,
+                             const ObjectParams& params) {
+  const SurfaceValidationReport report = validate_surface(mesh);
+  if (Status st = require_valid_surface(report, "object '" + object + "'"); !st) return st;
+  if (mesh.triangles.empty())
+    return Error{ErrorCode::kInvalidMesh, "object '" + object + "': no triangles"};
+  if (Status st = Impl::check_params(object, params); !st) return st;
+  auto slot = std::make_unique<SceneObject>();
+  slot->name = object;
+  slot->version = version;
+  slot->params = params;
+  slot->surface.emplace();
+  slot->surface->edges = build_surface_edges(mesh.triangles);
+  slot->topology = build_edge_topology(slot->surface->edges.edges, mesh.num_nodes());
+  slot->positions = mesh.positions;
+  slot->surface->mesh = std::move(mesh);
+  impl_->objects[object] = std::move(slot);
+  return {};
+}
+
+bool Pipeline::is_surface(const std::string& object) const {
+  const auto it = impl_->objects.find(object);
+  return it != impl_->objects.end() && it->second->surface.has_value();
 }
 
 void Pipeline::remove_object(const std::string& object) {
@@ -150,27 +223,32 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
                                  " is not the registered version " + std::to_string(obj.version)}});
       continue;
     }
-    if (state.positions.cols() != obj.mesh.num_nodes()) {
-      out.errors.push_back(
-          {state.object,
-           {ErrorCode::kInvalidArgument, who + ": " + std::to_string(state.positions.cols()) +
-                                             " positions for " +
-                                             std::to_string(obj.mesh.num_nodes()) + " nodes"}});
+    if (state.positions.cols() != obj.num_nodes()) {
+      out.errors.push_back({state.object,
+                            {ErrorCode::kInvalidArgument,
+                             who + ": " + std::to_string(state.positions.cols()) +
+                                 " positions for " + std::to_string(obj.num_nodes()) + " nodes"}});
       continue;
     }
     if (state.velocities.size() != 0 &&
-        (state.velocities.cols() != obj.mesh.num_nodes() || !state.velocities.allFinite())) {
+        (state.velocities.cols() != obj.num_nodes() || !state.velocities.allFinite())) {
       out.errors.push_back(
           {state.object,
            {ErrorCode::kInvalidArgument,
-            who + ": velocities must be empty or " + std::to_string(obj.mesh.num_nodes()) +
+            who + ": velocities must be empty or " + std::to_string(obj.num_nodes()) +
                 " finite columns (got " + std::to_string(state.velocities.cols()) + ")"}});
       continue;
     }
-    const ValidationReport report =
-        validate_positions(state.positions, obj.check_order, kFrameValidation);
-    if (Status st = require_valid(report, who); !st) {
-      out.errors.push_back({state.object, st.error()});
+    // The registration's checks on the new positions: NaN, and inverted or degenerate
+    // tets (degenerate triangles for a surface).
+    const Status shape =
+        obj.surface
+            ? require_valid_surface(validate_surface(state.positions, obj.surface->mesh.triangles),
+                                    who)
+            : require_valid(validate_positions(state.positions, obj.check_order, kFrameValidation),
+                            who);
+    if (!shape) {
+      out.errors.push_back({state.object, shape.error()});
       continue;
     }
     if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
@@ -189,7 +267,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       out.left_out.push_back(name);  // no state of its version yet: no pair with it
       continue;
     }
-    obj->body->set_positions(obj->positions);
+    if (obj->body) obj->body->set_positions(obj->positions);
     obj->marked.clear();
     obj->involved = false;
     list.push_back(obj.get());
@@ -197,9 +275,12 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   out.stats.objects = list.size();
   std::vector<Aabb> boxes;
   boxes.reserve(list.size());
-  for (const SceneObject* obj : list) boxes.push_back(obj->body->box());
+  for (const SceneObject* obj : list) boxes.push_back(obj->box());
+  // Two static objects never meet; two surfaces are never tested (neither has a depth map
+  // to push the other out of).
   const auto pairs = touching_object_pairs(boxes, [&](Index i, Index j) {
-    return !(list[i]->params.is_static && list[j]->params.is_static);
+    return !(list[i]->params.is_static && list[j]->params.is_static) &&
+           !(list[i]->surface && list[j]->surface);
   });
   out.stats.broad_ms += ms_since(t0);
 
@@ -210,7 +291,23 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     DetectStats ds;
     SceneObject& a = *list[pairs[p].first];
     SceneObject& b = *list[pairs[p].second];
-    impl_->detector.detect(*a.body, *b.body, contacts[p], &ds);
+    if (a.surface || b.surface) {
+      // Surface against tets: one-off detection (its broad phase included), timed as the
+      // narrow phase.
+      const auto start = Clock::now();
+      const SceneObject& s = a.surface ? a : b;
+      const SceneObject& t = a.surface ? b : a;
+      SurfaceDetectStats ss;
+      contacts[p] = to_pair_contacts(
+          detect_surface_tets(s.positions, s.surface->mesh.triangles, s.surface->edges, t.positions,
+                              t.mesh.tets, impl_->detect_options, &ss),
+          a.surface.has_value());
+      ds.narrow_ms = ms_since(start);
+      ds.candidates = ss.candidates;
+      ds.overlapping = ss.overlapping;
+    } else {
+      impl_->detector.detect(*a.body, *b.body, contacts[p], &ds);
+    }
     out.stats.broad_ms += ds.broad_ms;
     out.stats.narrow_ms += ds.narrow_ms;
     out.stats.candidate_pairs += ds.candidates;
@@ -226,7 +323,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   t0 = Clock::now();
   std::vector<SceneObject*> involved;
   for (SceneObject* obj : list)
-    if (obj->involved) involved.push_back(obj);
+    if (obj->involved && !obj->surface) involved.push_back(obj);  // a surface has no map
   std::vector<std::size_t> settled(involved.size(), 0);
   std::vector<std::string> depth_errors(involved.size());
   tbb::parallel_for(std::size_t{0}, involved.size(), [&](std::size_t i) {
@@ -264,14 +361,8 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (contacts[p].empty()) continue;
     SceneObject& a = *list[pairs[p].first];
     SceneObject& b = *list[pairs[p].second];
-    const auto velocities_of = [](const SceneObject& o) {
-      return o.velocities.cols() == o.positions.cols() && o.velocities.size() != 0 ? &o.velocities
-                                                                                   : nullptr;
-    };
-    const ResponseObject ra{&a.positions,     a.mesh.tets,      &a.topology,
-                            a.depth->depth(), velocities_of(a), a.depth->anchor()};
-    const ResponseObject rb{&b.positions,     b.mesh.tets,      &b.topology,
-                            b.depth->depth(), velocities_of(b), b.depth->anchor()};
+    const ResponseObject ra = a.response_view();
+    const ResponseObject rb = b.response_view();
     ResponseOptions options = pair_options(a.params, b.params);
     if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
     if (impl_->config.density_threshold > 0.0)

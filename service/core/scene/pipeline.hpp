@@ -15,6 +15,7 @@
 
 #include "core/common/result.hpp"
 #include "core/distance/depth_solver.hpp"
+#include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/response/penalty.hpp"
 #include "core/scene/scene.hpp"
@@ -58,8 +59,8 @@ struct FrameStats {
   double response_ms = 0.0;
   double total_ms = 0.0;
   std::size_t objects = 0;
-  std::size_t candidate_pairs = 0;    ///< tet pairs out of the broad phase
-  std::size_t overlapping_pairs = 0;  ///< tet pairs out of the narrow phase
+  std::size_t candidate_pairs = 0;    ///< tet (or triangle-tet) pairs out of the broad phase
+  std::size_t overlapping_pairs = 0;  ///< tet (or triangle-tet) pairs out of the narrow phase
   std::size_t settled_nodes = 0;      ///< depth values computed (lazy)
   std::size_t contacts = 0;           ///< point + segment contacts that produced a force
   /// Object pairs whose pushes cancelled node by node (coincident or mirror-symmetric
@@ -113,6 +114,17 @@ class Pipeline {
   /// previous version, if any, stays in place. Topology-derived data is built here.
   Status set_topology(const std::string& object, std::uint32_t version, TetMesh mesh,
                       const ObjectParams& params);
+
+  /// Registers or replaces a surface object (docs/SURFACES.md): triangles, closed or
+  /// open, validated like tets (counts, indices, NaN, degenerate triangles). It meets tet
+  /// objects only (never another surface): its vertices and edges in their tets get the
+  /// point or segment response and the tets' nodes the reactions; it has no depth map.
+  /// On error the previous version, if any, stays in place.
+  Status set_surface(const std::string& object, std::uint32_t version, SurfaceMesh mesh,
+                     const ObjectParams& params);
+
+  /// True when the object is registered as a surface.
+  [[nodiscard]] bool is_surface(const std::string& object) const;
 
   /// Drops an object; unknown names are ignored.
   void remove_object(const std::string& object);
