@@ -9,11 +9,14 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <span>
+#include <variant>
 #include <vector>
 
 #include "fuzz_input.hpp"
@@ -88,9 +91,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     v = selector < 248 ? static_cast<std::int32_t>(selector % std::max<std::size_t>(n, 1))
                        : in.take<std::int32_t>();
   }
+  // A surface object (protocol 2) takes the same indices as triangles: the stream's
+  // lengths then need not be multiples of 3, which validation must catch.
+  std::vector<std::int32_t> triangles;
+  if (in.take<std::uint8_t>() >= 208) triangles = std::move(tets);
+  std::array<std::int32_t, 4> one_tet{0, 1, 2, 3};
+  const bool both = !triangles.empty() && in.take<std::uint8_t>() >= 240;  // must be refused
+  const std::span<std::int32_t> sent_tets =
+      both ? std::span<std::int32_t>(one_tet) : std::span<std::int32_t>(tets);
   tc::protocol::borrow(topology.node_ids, node_ids.data(), node_ids.size());
   tc::protocol::borrow(topology.rest_positions, rest.data(), rest.size());
-  tc::protocol::borrow(topology.tets, tets.data(), tets.size());
+  tc::protocol::borrow(topology.tets, sent_tets.data(), sent_tets.size());
+  tc::protocol::borrow(topology.triangles, triangles.data(), triangles.size());
   topology.params.stiffness = in.take<std::uint8_t>() < 200 ? 1e4 : in.coordinate();
   topology.params.damping = in.take<std::uint8_t>() < 200 ? 0.0 : in.coordinate();
   topology.params.max_force = in.take<std::uint8_t>() < 200 ? 0.0 : in.coordinate();
@@ -110,18 +122,35 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     TC_FUZZ_CHECK(tc::daemon::status_code(topology_ok.error().code) != tetcollide_STATUS_OK);
     return 0;
   }
-  tc::TetMesh mesh = tc::daemon::to_mesh(tv);
-  TC_FUZZ_CHECK(static_cast<std::size_t>(mesh.num_nodes()) * 3 == tv.rest_positions.size());
-  TC_FUZZ_CHECK(static_cast<std::size_t>(mesh.num_tets()) * 4 == tv.tets.size());
-  TC_FUZZ_CHECK(mesh.node_ids.size() == static_cast<std::size_t>(mesh.num_nodes()));
-  TC_FUZZ_CHECK(mesh.num_nodes() <= limits.max_nodes && mesh.num_tets() <= limits.max_tets);
+  TC_FUZZ_CHECK(tv.tets.empty() || tv.triangles.empty());
+  tc::ObjectMesh object_mesh = tc::daemon::to_mesh(tv);
   const tc::ObjectParams params = tc::daemon::to_params(tv.params);
-  const tc::Index nodes = mesh.num_nodes();
+  tc::Index nodes = 0;
+  if (auto* surface = std::get_if<tc::SurfaceMesh>(&object_mesh)) {
+    TC_FUZZ_CHECK(!tv.triangles.empty());
+    TC_FUZZ_CHECK(static_cast<std::size_t>(surface->num_triangles()) * 3 == tv.triangles.size());
+    TC_FUZZ_CHECK(surface->num_triangles() <= limits.max_tets);
+    nodes = surface->num_nodes();
+    TC_FUZZ_CHECK(surface->node_ids.size() == static_cast<std::size_t>(nodes));
+  } else {
+    const tc::TetMesh& mesh = std::get<tc::TetMesh>(object_mesh);
+    TC_FUZZ_CHECK(static_cast<std::size_t>(mesh.num_tets()) * 4 == tv.tets.size());
+    TC_FUZZ_CHECK(mesh.num_tets() <= limits.max_tets);
+    nodes = mesh.num_nodes();
+    TC_FUZZ_CHECK(mesh.node_ids.size() == static_cast<std::size_t>(nodes));
+  }
+  TC_FUZZ_CHECK(static_cast<std::size_t>(nodes) * 3 == tv.rest_positions.size());
+  TC_FUZZ_CHECK(nodes <= limits.max_nodes);
 
   tc::Pipeline pipeline;
   TC_FUZZ_CHECK(pipeline.set_topology("fixed", 1, fixed_tet(), tc::ObjectParams{}).ok());
   const std::string object(tv.object);
-  const tc::Status set = pipeline.set_topology(object, tv.version, std::move(mesh), params);
+  const tc::Status set =
+      std::holds_alternative<tc::SurfaceMesh>(object_mesh)
+          ? pipeline.set_surface(object, tv.version,
+                                 std::get<tc::SurfaceMesh>(std::move(object_mesh)), params)
+          : pipeline.set_topology(object, tv.version, std::get<tc::TetMesh>(std::move(object_mesh)),
+                                  params);
   const bool registered = set.ok();
   if (verbose)
     std::fprintf(stderr, "topology: %s\n", registered ? "registered" : set.error().message.c_str());

@@ -517,6 +517,7 @@ std::uint32_t Client::register_object(const std::string& object, const Mesh& mes
   borrow_const(s.node_ids, mesh.node_ids.data(), mesh.node_ids.size());
   borrow_const(s.rest_positions, mesh.rest_positions.data(), mesh.rest_positions.size());
   borrow_const(s.tets, mesh.tets.data(), mesh.tets.size());
+  borrow_const(s.triangles, mesh.triangles.data(), mesh.triangles.size());
   s.params.stiffness = params.stiffness;
   s.params.damping = params.damping;
   s.params.max_force = params.max_force;

@@ -102,6 +102,7 @@ Expected<RecordSummary> record(const RecordOptions& options, const std::atomic<b
                 r.mesh.rest_positions =
                     to_vector(s->rest_positions._buffer, s->rest_positions._length);
                 r.mesh.tets = to_vector(s->tets._buffer, s->tets._length);
+                r.mesh.triangles = to_vector(s->triangles._buffer, s->triangles._length);
                 r.params.stiffness = s->params.stiffness;
                 r.params.damping = s->params.damping;
                 r.params.max_force = s->params.max_force;

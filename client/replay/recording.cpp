@@ -115,21 +115,24 @@ client::ResponseKind response_of(const std::string& s) {
 }
 
 json encode(const TopologyRecord& r) {
-  return {{"type", "topology"},
-          {"t", r.t},
-          {"scene", r.scene},
-          {"object", r.object},
-          {"version", r.version},
-          {"node_ids", r.mesh.node_ids},
-          {"rest_positions", doubles(r.mesh.rest_positions)},
-          {"tets", r.mesh.tets},
-          {"params",
-           {{"stiffness", r.params.stiffness},
-            {"damping", r.params.damping},
-            {"max_force", r.params.max_force},
-            {"is_static", r.params.is_static},
-            {"depth", depth_name(r.params.depth)},
-            {"response", response_name(r.params.response)}}}};
+  json j = {{"type", "topology"},
+            {"t", r.t},
+            {"scene", r.scene},
+            {"object", r.object},
+            {"version", r.version},
+            {"node_ids", r.mesh.node_ids},
+            {"rest_positions", doubles(r.mesh.rest_positions)},
+            {"tets", r.mesh.tets},
+            {"params",
+             {{"stiffness", r.params.stiffness},
+              {"damping", r.params.damping},
+              {"max_force", r.params.max_force},
+              {"is_static", r.params.is_static},
+              {"depth", depth_name(r.params.depth)},
+              {"response", response_name(r.params.response)}}}};
+  // Only surface objects carry triangles: tet recordings stay as they were.
+  if (!r.mesh.triangles.empty()) j["triangles"] = r.mesh.triangles;
+  return j;
 }
 
 json encode(const RemoveRecord& r) {
@@ -189,6 +192,8 @@ Record decode(const json& j) {
     r.mesh.node_ids = integers<std::int64_t>(j.at("node_ids"), "node_ids");
     r.mesh.rest_positions = read_doubles(j.at("rest_positions"));
     r.mesh.tets = integers<std::int32_t>(j.at("tets"), "tets");
+    if (j.contains("triangles"))
+      r.mesh.triangles = integers<std::int32_t>(j.at("triangles"), "triangles");
     const json& p = j.at("params");
     r.params.stiffness = p.at("stiffness").get<double>();
     r.params.damping = p.at("damping").get<double>();

@@ -34,12 +34,13 @@ std::uint64_t hash_bytes(std::uint64_t h, std::span<const T> values) {
 /// and the version (doubles by their bits, so a re-sent sample always matches itself).
 std::uint64_t content_hash(const TopologyView& t) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
-  const std::array<std::uint64_t, 3> sizes{t.node_ids.size(), t.rest_positions.size(),
-                                           t.tets.size()};
+  const std::array<std::uint64_t, 4> sizes{t.node_ids.size(), t.rest_positions.size(),
+                                           t.tets.size(), t.triangles.size()};
   h = hash_bytes(h, std::span<const std::uint64_t>(sizes));
   h = hash_bytes(h, t.node_ids);
   h = hash_bytes(h, t.rest_positions);
   h = hash_bytes(h, t.tets);
+  h = hash_bytes(h, t.triangles);
   const std::array<double, 3> numbers{t.params.stiffness, t.params.damping, t.params.max_force};
   h = hash_bytes(h, std::span<const double>(numbers));
   const std::array<std::int64_t, 3> choices{t.params.is_static ? 1 : 0,
@@ -185,8 +186,12 @@ void Router::on_topology(const TopologyView& t, Clock::time_point now) {
   job.params = to_params(t.params);
   job.received = now;
   job.source_timestamp = t.source_timestamp;
-  spdlog::info("{}/{}: topology version {} received ({} nodes, {} tets)", it->first, object,
-               t.version, info.nodes, t.tets.size() / 4);
+  if (t.triangles.empty())
+    spdlog::info("{}/{}: topology version {} received ({} nodes, {} tets)", it->first, object,
+                 t.version, info.nodes, t.tets.size() / 4);
+  else
+    spdlog::info("{}/{}: topology version {} received (a surface: {} nodes, {} triangles)",
+                 it->first, object, t.version, info.nodes, t.triangles.size() / 3);
   jobs_.post(it->first, std::move(job));
   release_held(it->first, scene, object, now);
 }

@@ -48,6 +48,7 @@ TopologyView view_of(const tetcollide_MeshTopology& s) noexcept {
   v.node_ids = span_of(s.node_ids._buffer, s.node_ids._length);
   v.rest_positions = span_of(s.rest_positions._buffer, s.rest_positions._length);
   v.tets = span_of(s.tets._buffer, s.tets._length);
+  v.triangles = span_of(s.triangles._buffer, s.triangles._length);
   v.params.stiffness = s.params.stiffness;
   v.params.damping = s.params.damping;
   v.params.max_force = s.params.max_force;
@@ -88,6 +89,7 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   if (Status st = check_names(t.scene, t.object); !st) return st;
   const std::size_t coords = t.rest_positions.size();
   const std::size_t indices = t.tets.size();
+  const std::size_t corners = t.triangles.size();
   // Sizes first: nothing below walks an array longer than the limits allow.
   if (coords > 3 * static_cast<std::size_t>(limits.max_nodes))
     return fail(ErrorCode::kOversized, t.scene, t.object,
@@ -97,6 +99,10 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
     return fail(ErrorCode::kOversized, t.scene, t.object,
                 std::to_string(indices / 4) +
                     " tets exceed limits.max_tets = " + std::to_string(limits.max_tets));
+  if (corners > 3 * static_cast<std::size_t>(limits.max_tets))
+    return fail(ErrorCode::kOversized, t.scene, t.object,
+                std::to_string(corners / 3) + " triangles exceed limits.max_tets = " +
+                    std::to_string(limits.max_tets) + " (surfaces count triangles against it)");
   if (t.node_ids.size() > static_cast<std::size_t>(limits.max_nodes))
     return fail(ErrorCode::kOversized, t.scene, t.object,
                 std::to_string(t.node_ids.size()) + " node ids exceed limits.max_nodes");
@@ -108,11 +114,22 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   if (indices % 4 != 0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "tets has " + std::to_string(indices) + " indices, not a multiple of 4");
-  const std::size_t n = coords / 3;
-  if (n < 4 || indices == 0)
+  if (corners % 3 != 0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
-                "a topology needs at least 4 nodes and 1 tet, got " + std::to_string(n) +
-                    " nodes and " + std::to_string(indices / 4) + " tets");
+                "triangles has " + std::to_string(corners) + " indices, not a multiple of 3");
+  const std::size_t n = coords / 3;
+  if (indices != 0 && corners != 0)
+    return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
+                "a topology has tets or triangles (a surface), not both: got " +
+                    std::to_string(indices / 4) + " tets and " + std::to_string(corners / 3) +
+                    " triangles");
+  if (corners != 0 && n < 3)
+    return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
+                "a surface needs at least 3 nodes, got " + std::to_string(n));
+  if (corners == 0 && (n < 4 || indices == 0))
+    return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
+                "a topology needs at least 4 nodes and 1 tet (or triangles: a surface), got " +
+                    std::to_string(n) + " nodes and " + std::to_string(indices / 4) + " tets");
   if (!t.node_ids.empty() && t.node_ids.size() != n)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "node_ids has " + std::to_string(t.node_ids.size()) + " entries for " +
@@ -133,6 +150,20 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
           return fail(
               ErrorCode::kInvalidMesh, t.scene, t.object,
               "tet " + std::to_string(k / 4) + " uses node " + std::to_string(tet[a]) + " twice");
+    }
+  }
+  for (std::size_t k = 0; k < corners; k += 3) {
+    const std::int32_t* tri = &t.triangles[k];
+    for (int a = 0; a < 3; ++a) {
+      if (tri[a] < 0 || tri[a] >= n32)
+        return fail(ErrorCode::kInvalidMesh, t.scene, t.object,
+                    "triangle " + std::to_string(k / 3) + " has node index " +
+                        std::to_string(tri[a]) + " outside [0, " + std::to_string(n) + ")");
+      for (int b = 0; b < a; ++b)
+        if (tri[a] == tri[b])
+          return fail(ErrorCode::kInvalidMesh, t.scene, t.object,
+                      "triangle " + std::to_string(k / 3) + " uses node " + std::to_string(tri[a]) +
+                          " twice");
     }
   }
   const WireParams& p = t.params;
@@ -197,14 +228,24 @@ Status validate_state(const StateView& s, const Limits& limits, Index registered
   return {};
 }
 
-TetMesh to_mesh(const TopologyView& t) {
-  TetMesh mesh;
+ObjectMesh to_mesh(const TopologyView& t) {
   const auto n = static_cast<Eigen::Index>(t.rest_positions.size() / 3);
-  mesh.positions = to_positions(t.rest_positions);
-  mesh.node_ids.resize(static_cast<std::size_t>(n));
+  std::vector<std::int64_t> ids(static_cast<std::size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i)
-    mesh.node_ids[static_cast<std::size_t>(i)] =
+    ids[static_cast<std::size_t>(i)] =
         t.node_ids.empty() ? i + 1 : t.node_ids[static_cast<std::size_t>(i)];
+  if (!t.triangles.empty()) {
+    SurfaceMesh surface;
+    surface.positions = to_positions(t.rest_positions);
+    surface.node_ids = std::move(ids);
+    surface.triangles.resize(t.triangles.size() / 3);
+    for (std::size_t k = 0; k < surface.triangles.size(); ++k)
+      surface.triangles[k] = {t.triangles[3 * k], t.triangles[3 * k + 1], t.triangles[3 * k + 2]};
+    return surface;
+  }
+  TetMesh mesh;
+  mesh.positions = to_positions(t.rest_positions);
+  mesh.node_ids = std::move(ids);
   mesh.tets.resize(t.tets.size() / 4);
   for (std::size_t k = 0; k < mesh.tets.size(); ++k)
     mesh.tets[k] = {t.tets[4 * k], t.tets[4 * k + 1], t.tets[4 * k + 2], t.tets[4 * k + 3]};

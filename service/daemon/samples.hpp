@@ -39,6 +39,7 @@ struct TopologyView {
   WireParams params;
   /// The sample's source timestamp (ns, writer's clock), echoed in the verdict; 0 = none.
   std::int64_t source_timestamp = 0;
+  std::span<const std::int32_t> triangles = {};  ///< 3k of a surface object (tets empty), or empty
 };
 
 /// A MeshState sample.
@@ -59,10 +60,11 @@ StateView view_of(const tetcollide_MeshState& sample) noexcept;
 Status validate_name(std::string_view name, std::size_t max_length, const char* what);
 
 /// Checks a topology sample on its own: names, version > 0, sizes against `limits`
-/// (kOversized, checked first), array lengths (kInvalidArgument), tet indices in range
-/// and distinct and finite rest positions (kInvalidMesh), parameters
-/// (kInvalidArgument). Shape defects (degenerate, inverted tets) are the pipeline's to
-/// find when it builds the object.
+/// (kOversized, checked first; a surface's triangles count against limits.max_tets),
+/// array lengths and tets or triangles, not both (kInvalidArgument), tet or triangle
+/// indices in range and distinct and finite rest positions (kInvalidMesh), parameters
+/// (kInvalidArgument). Shape defects (degenerate, inverted tets, degenerate triangles)
+/// are the pipeline's to find when it builds the object.
 Status validate_topology(const TopologyView& topology, const Limits& limits);
 
 /// Checks a state sample against the registered topology's node count: names,
@@ -75,8 +77,8 @@ Status validate_state(const StateView& state, const Limits& limits, Index regist
 Status validate_state_header(const StateView& state, const Limits& limits);
 
 /// Mesh of a validated topology: node ids (1..n when the sample has none), rest
-/// positions, tets.
-TetMesh to_mesh(const TopologyView& topology);
+/// positions, tets, or the triangles of a surface object.
+ObjectMesh to_mesh(const TopologyView& topology);
 
 /// Parameters of a validated topology.
 ObjectParams to_params(const WireParams& params);

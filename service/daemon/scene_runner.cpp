@@ -71,11 +71,16 @@ void SceneRunner::run(SceneJob& job) {
 
 void SceneRunner::run_topology(TopologyJob& job) {
   const auto start = Clock::now();
-  const auto nodes = job.mesh.num_nodes();
-  const auto tets = job.mesh.num_tets();
+  auto* surface = std::get_if<SurfaceMesh>(&job.mesh);
+  const Index nodes = surface ? surface->num_nodes() : std::get<TetMesh>(job.mesh).num_nodes();
+  const Index cells = surface ? surface->num_triangles() : std::get<TetMesh>(job.mesh).num_tets();
+  const std::string cells_text =
+      std::to_string(cells) + (surface ? " triangles (a surface)" : " tets");
   Status st = Error{ErrorCode::kInvalidMesh, {}};
   try {
-    st = pipeline_.set_topology(job.object, job.version, std::move(job.mesh), job.params);
+    st = surface ? pipeline_.set_surface(job.object, job.version, std::move(*surface), job.params)
+                 : pipeline_.set_topology(job.object, job.version,
+                                          std::get<TetMesh>(std::move(job.mesh)), job.params);
   } catch (const std::exception& e) {
     st = Error{ErrorCode::kInvalidArgument, std::string("internal error: ") + e.what()};
   }
@@ -83,7 +88,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
   // Building a large object frees big temporaries (the received sample, the build's
   // scratch arrays); glibc keeps freed heap memory resident unless asked to return it.
   // Once per topology version, so the few milliseconds this takes do not matter.
-  if (static_cast<std::size_t>(tets) >= kTrimAfterTets) malloc_trim(0);
+  if (static_cast<std::size_t>(cells) >= kTrimAfterTets) malloc_trim(0);
   StatusMessage msg;
   msg.scene = scene_;
   msg.object = job.object;
@@ -98,7 +103,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
     msg.kind = StatusKind::kRegistered;
     msg.code = tetcollide_STATUS_OK;
     msg.message = "registered topology version " + std::to_string(job.version) + ": " +
-                  std::to_string(nodes) + " nodes, " + std::to_string(tets) + " tets, built in " +
+                  std::to_string(nodes) + " nodes, " + cells_text + ", built in " +
                   std::to_string(build_ms) + " ms (" +
                   std::to_string(ms_between(job.received, Clock::now())) + " ms since received)";
     spdlog::info("{}/{}: {}", scene_, job.object, msg.message);

@@ -21,7 +21,7 @@ namespace tc::daemon {
 struct TopologyJob {
   std::string object;
   std::uint32_t version = 0;
-  TetMesh mesh;
+  ObjectMesh mesh;  ///< tets, or a surface object's triangles
   ObjectParams params;
   Clock::time_point received{};
   std::int64_t source_timestamp = 0;  ///< of the MeshTopology sample, echoed in the verdict

@@ -15,8 +15,22 @@ namespace tc::itest {
 
 /// Names of the scenarios; each runs in the scene of the same name.
 inline const std::vector<std::string>& scenario_names() {
-  static const std::vector<std::string> names{"two_boxes", "cut_and_errors"};
+  static const std::vector<std::string> names{"two_boxes", "cut_and_errors", "surface_tool"};
   return names;
+}
+
+/// What a recording of a scenario holds: its objects and its frames 0 .. frames - 1.
+struct ScenarioShape {
+  std::size_t objects = 0;
+  std::int64_t frames = 0;
+};
+
+inline ScenarioShape scenario_shape(const std::string& name) {
+  if (name == "two_boxes") return {2, 40};
+  if (name == "cut_and_errors") return {3, 30};
+  if (name == "surface_tool") return {2, 24};
+  ADD_FAILURE() << "unknown scenario " << name;
+  return {};
 }
 
 /// Streams scenario `name` through `c` (connected to scene `name`, service ready).
@@ -65,6 +79,31 @@ inline void run_scenario(client::Client& c, const std::string& name,
       if (f == 20) pa[4] = std::nan("");  // a bad state: rejected, a's answer has the error
       const auto pb = translated(f < 15 ? b : b2, {-0.1 * s, 0.0, 0.0});
       step(f, {{"a", pa}, {"b", pb}});
+    }
+    return;
+  }
+  if (name == "surface_tool") {
+    // A surface object (issue 19): a plate of triangles pressed into a static box and
+    // dragged across it, cut (a finer plate, version 2) at frame 12, a NaN at frame 16.
+    client::ObjectParams box_params;
+    box_params.is_static = true;
+    c.register_object("box", box_mesh(3, {-1, -1, -1}, {1, 1, 0}), box_params);
+    const client::Mesh plate = plate_mesh(4, 0.6, {-0.3, -0.3, 0.0});
+    const client::Mesh plate2 = plate_mesh(6, 0.6, {-0.3, -0.3, 0.0});
+    client::ObjectParams tool;
+    tool.response = client::ResponseKind::kPoint;
+    c.register_object("tool", plate, tool);
+    for (const char* o : {"box", "tool"}) ASSERT_TRUE(c.wait_registered(o, 10s).ok) << o;
+    if (registered) registered();
+    for (std::int64_t f = 0; f < 24; ++f) {
+      if (f == 12) {
+        ASSERT_EQ(c.register_object("tool", plate2, tool), 2u);  // the cut
+        ASSERT_TRUE(c.wait_registered("tool", 10s).ok);
+      }
+      const double t = static_cast<double>(f);
+      auto p = translated(f < 12 ? plate : plate2, {0.02 * t, 0.01 * t, 0.02 - 0.004 * t});
+      if (f == 16) p[7] = std::nan("");  // rejected: the tool's answer has the error
+      step(f, {{"tool", p}});
     }
     return;
   }

@@ -21,6 +21,20 @@ inline client::Mesh box_mesh(int n, const Eigen::Vector3d& lo, const Eigen::Vect
   return out;
 }
 
+/// Flat-array surface object (issue 19): the square [x0, x0 + w] x [y0, y0 + w] at
+/// height z in n x n cells, two triangles each (test::square_surface moved).
+inline client::Mesh plate_mesh(int n, double w, const Eigen::Vector3d& corner) {
+  SurfaceMesh m = test::square_surface(n, w, corner.z());
+  client::Mesh out;
+  out.node_ids = m.node_ids;
+  for (Eigen::Index i = 0; i < m.positions.cols(); ++i)
+    for (int k = 0; k < 3; ++k)
+      out.rest_positions.push_back(m.positions(k, i) + (k < 2 ? corner[k] : 0.0));
+  for (const Triangle& t : m.triangles)
+    out.triangles.insert(out.triangles.end(), t.begin(), t.end());
+  return out;
+}
+
 /// Rest positions moved by `offset` (rigid translation), flat.
 inline std::vector<double> translated(const client::Mesh& mesh, const Eigen::Vector3d& offset) {
   std::vector<double> p = mesh.rest_positions;

@@ -337,6 +337,68 @@ TEST_F(ServiceTest, ACutReplacesTheTopologyBetweenFrames) {
   EXPECT_EQ(f2->find("b")->status, static_cast<int>(StatusCode::kStaleVersion));
 }
 
+// A surface object (issue 19) through the service: a plate of triangles pressed into a
+// static box is pushed up, the box takes the reactions (the sum of every force is zero),
+// nothing when apart; a bad surface topology and a NaN state are rejected by name.
+TEST_F(ServiceTest, ASurfaceObjectPressedIntoABoxIsPushedOut) {
+  auto c = connect("surface");
+  client::ObjectParams box_params;
+  box_params.is_static = true;
+  const client::Mesh box = box_mesh(3, {-1, -1, -1}, {1, 1, 0});
+  const client::Mesh plate = plate_mesh(6, 0.6, {-0.3, -0.3, 0.0});
+  c->register_object("box", box, box_params);
+  c->register_object("plate", plate, {});
+  ASSERT_TRUE(c->wait_registered("box", 10s).ok);
+  const auto reg = c->wait_registered("plate", 10s);
+  ASSERT_TRUE(reg.ok) << reg.message;
+  const std::size_t n = plate.rest_positions.size() / 3;
+  for (std::int64_t f = 0; f < 3; ++f) {
+    const double sink = 0.01 * static_cast<double>(f);  // 0, 1 and 2 cm into the box
+    const auto p = translated(plate, {0.0, 0.0, -sink + (f == 0 ? 0.05 : 0.0)});
+    c->publish_states(f, {{"plate", p}});
+    const auto forces = c->wait_forces(f, 5s);
+    ASSERT_TRUE(forces && forces->frame == f) << "frame " << f;
+    ASSERT_TRUE(forces->ok());
+    const auto* on_plate = forces->find("plate");
+    const auto* on_box = forces->find("box");
+    ASSERT_NE(on_plate, nullptr);
+    ASSERT_NE(on_box, nullptr);
+    expect_sane(*on_plate, n);
+    if (f == 0) {
+      EXPECT_TRUE(on_plate->nodes.empty()) << "5 cm above the box";
+      continue;
+    }
+    EXPECT_EQ(on_plate->nodes.size(), n) << "every vertex is in the box";
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero(), up = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < on_plate->nodes.size(); ++k) {
+      const Eigen::Vector3d v(on_plate->forces[3 * k], on_plate->forces[3 * k + 1],
+                              on_plate->forces[3 * k + 2]);
+      EXPECT_GT(v.z(), 0.0);
+      up += v;
+    }
+    sum += up;
+    for (std::size_t k = 0; k < on_box->nodes.size(); ++k)
+      sum += Eigen::Vector3d(on_box->forces[3 * k], on_box->forces[3 * k + 1],
+                             on_box->forces[3 * k + 2]);
+    EXPECT_LT(sum.norm(), 1e-9 * up.norm());
+  }
+  // A NaN in the plate's state: its answer carries invalid_mesh.
+  auto bad = translated(plate, {0.0, 0.0, -0.01});
+  bad[3 * 5 + 1] = std::nan("");
+  c->publish_states(3, {{"plate", bad}});
+  const auto rejected = c->wait_forces(3, 5s);
+  ASSERT_TRUE(rejected && rejected->frame == 3);
+  EXPECT_EQ(rejected->find("plate")->status, static_cast<int>(StatusCode::kInvalidMesh));
+  // A surface whose triangle names a node that does not exist: KIND_ERROR, named.
+  client::Mesh broken = plate;
+  broken.triangles[4] = 999;
+  c->register_object("broken", broken, {});
+  const auto verdict = c->wait_registered("broken", 10s);
+  EXPECT_FALSE(verdict.ok);
+  EXPECT_NE(verdict.message.find("triangle 1 has node index 999"), std::string::npos)
+      << verdict.message;
+}
+
 TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
   auto c = connect("remove");
   TwoBoxes s;

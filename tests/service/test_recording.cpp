@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <random>
+#include <sstream>
 
 namespace tc::replay {
 namespace {
@@ -48,6 +50,39 @@ bool same_doubles_nan_aware(const std::vector<double>& a, const std::vector<doub
     if (std::memcmp(&a[i], &b[i], sizeof(double)) != 0) return false;
   }
   return true;
+}
+
+// A surface object's topology keeps its triangles; a tet object's record has no
+// "triangles" key at all (older recordings and readers are unaffected).
+TEST(Recording, SurfaceTopologiesKeepTheirTrianglesAndTetOnesHaveNoKey) {
+  TopologyRecord surface;
+  surface.scene = "s";
+  surface.object = "tool";
+  surface.version = 2;
+  surface.mesh.rest_positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+  surface.mesh.triangles = {0, 1, 2, 1, 3, 2};
+  TopologyRecord tets = surface;
+  tets.object = "box";
+  tets.mesh.triangles.clear();
+  tets.mesh.tets = {0, 1, 2, 3};
+  const auto path = temp_file("surface.jsonl");
+  RecordingWriter w;
+  ASSERT_TRUE(w.open(path, 1));
+  ASSERT_TRUE(w.write(surface));
+  ASSERT_TRUE(w.write(tets));
+  ASSERT_TRUE(w.close());
+  std::ostringstream text_stream;
+  text_stream << std::ifstream(path).rdbuf();
+  const std::string text = text_stream.str();
+  const auto back = read_recording(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(back) << back.error().message;
+  ASSERT_EQ(back->size(), 2u);
+  EXPECT_EQ(std::get<TopologyRecord>((*back)[0]).mesh.triangles, surface.mesh.triangles);
+  EXPECT_TRUE(std::get<TopologyRecord>((*back)[0]).mesh.tets.empty());
+  EXPECT_TRUE(std::get<TopologyRecord>((*back)[1]).mesh.triangles.empty());
+  EXPECT_EQ(text.find("triangles"), text.rfind("triangles")) << "one key, the surface's";
+  EXPECT_NE(text.find("\"triangles\":[0,1,2,1,3,2]"), std::string::npos) << text;
 }
 
 TEST(Recording, EveryRecordTypeRoundTrips) {

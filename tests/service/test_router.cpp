@@ -130,7 +130,7 @@ TEST_F(RouterTest, TopologyBecomesAJob) {
   ASSERT_EQ(topos.size(), 1u);
   EXPECT_EQ(topos[0].object, "a");
   EXPECT_EQ(topos[0].version, 1u);
-  EXPECT_EQ(topos[0].mesh.num_tets(), 1);
+  EXPECT_EQ(std::get<TetMesh>(topos[0].mesh).num_tets(), 1);
   EXPECT_EQ(router().scene_count(), 1u);
   add_object("s", "a");  // re-delivered: not rebuilt, but answered
   EXPECT_EQ(jobs.topologies().size(), 1u);

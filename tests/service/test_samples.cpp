@@ -22,6 +22,7 @@ struct TopologyData {
   std::vector<std::int64_t> node_ids;
   std::vector<double> rest;
   std::vector<std::int32_t> tets;
+  std::vector<std::int32_t> triangles;
   WireParams params{1e4, 0.0, 0.0, false, tetcollide_DEPTH_CPFM, tetcollide_RESPONSE_AUTO};
 
   explicit TopologyData(const TetMesh& m) {
@@ -29,8 +30,13 @@ struct TopologyData {
     rest.assign(m.positions.data(), m.positions.data() + m.positions.size());
     for (const Tet& t : m.tets) tets.insert(tets.end(), t.begin(), t.end());
   }
+  explicit TopologyData(const SurfaceMesh& m) {
+    node_ids = m.node_ids;
+    rest.assign(m.positions.data(), m.positions.data() + m.positions.size());
+    for (const Triangle& t : m.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
+  }
   [[nodiscard]] TopologyView view() const {
-    return TopologyView{scene, object, version, node_ids, rest, tets, params};
+    return TopologyView{scene, object, version, node_ids, rest, tets, params, 0, triangles};
   }
 };
 
@@ -54,7 +60,7 @@ TEST(Samples, GoodTopologyConverts) {
       test::structured_box(2, 2, 2, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 2, 3));
   const TopologyData d(m);
   ASSERT_TRUE(validate_topology(d.view(), Limits{}));
-  const TetMesh back = to_mesh(d.view());
+  const TetMesh back = std::get<TetMesh>(to_mesh(d.view()));
   EXPECT_EQ(back.node_ids, m.node_ids);
   EXPECT_EQ(back.tets, m.tets);
   EXPECT_EQ(back.positions, m.positions);  // bit for bit
@@ -64,7 +70,7 @@ TEST(Samples, MissingNodeIdsBecomeOneBased) {
   TopologyData d(test::single_tet());
   d.node_ids.clear();
   ASSERT_TRUE(validate_topology(d.view(), Limits{}));
-  EXPECT_EQ(to_mesh(d.view()).node_ids, (std::vector<std::int64_t>{1, 2, 3, 4}));
+  EXPECT_EQ(std::get<TetMesh>(to_mesh(d.view())).node_ids, (std::vector<std::int64_t>{1, 2, 3, 4}));
 }
 
 TEST(Samples, ParamsConvert) {
@@ -147,6 +153,60 @@ INSTANTIATE_TEST_SUITE_P(
                      ErrorCode::kInvalidArgument, "params.depth 3"},
         TopologyCase{"response_enum", [](TopologyData& d, Limits&) { d.params.response = -1; },
                      ErrorCode::kInvalidArgument, "params.response -1"}),
+    [](const ::testing::TestParamInfo<TopologyCase>& p) { return std::string(p.param.name); });
+
+TEST(Samples, GoodSurfaceConverts) {
+  const SurfaceMesh m = test::cube_surface(0.5, Eigen::Vector3d(1, 2, 3));
+  const TopologyData d(m);
+  const Status st = validate_topology(d.view(), Limits{});
+  ASSERT_TRUE(st) << st.error().message;
+  const ObjectMesh back = to_mesh(d.view());
+  ASSERT_TRUE(std::holds_alternative<SurfaceMesh>(back));
+  const SurfaceMesh& s = std::get<SurfaceMesh>(back);
+  EXPECT_EQ(s.triangles, m.triangles);
+  EXPECT_EQ(s.positions, m.positions);  // bit for bit
+  EXPECT_EQ(s.node_ids, (std::vector<std::int64_t>{1, 2, 3, 4, 5, 6, 7, 8}));
+}
+
+class BadSurface : public ::testing::TestWithParam<TopologyCase> {};
+
+TEST_P(BadSurface, IsRejected) {
+  TopologyData d(test::cube_surface());  // 8 nodes, 12 triangles
+  Limits limits;
+  GetParam().spoil(d, limits);
+  const Status st = validate_topology(d.view(), limits);
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, GetParam().code) << st.error().message;
+  EXPECT_NE(st.error().message.find(GetParam().mentions), std::string::npos) << st.error().message;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, BadSurface,
+    ::testing::Values(
+        TopologyCase{"too_many_triangles", [](TopologyData&, Limits& l) { l.max_tets = 11; },
+                     ErrorCode::kOversized, "12 triangles exceed limits.max_tets = 11"},
+        TopologyCase{"not_triple", [](TopologyData& d, Limits&) { d.triangles.pop_back(); },
+                     ErrorCode::kInvalidArgument, "triangles has 35 indices, not a multiple of 3"},
+        TopologyCase{"tets_and_triangles",
+                     [](TopologyData& d, Limits&) {
+                       d.tets = {0, 1, 2, 4};
+                     },
+                     ErrorCode::kInvalidArgument, "tets or triangles (a surface), not both"},
+        TopologyCase{"two_nodes",
+                     [](TopologyData& d, Limits&) {
+                       d.rest.resize(6);
+                       d.node_ids.resize(2);
+                       d.triangles = {0, 1, 0};
+                     },
+                     ErrorCode::kInvalidArgument, "a surface needs at least 3 nodes, got 2"},
+        TopologyCase{"index_high", [](TopologyData& d, Limits&) { d.triangles[7] = 8; },
+                     ErrorCode::kInvalidMesh, "triangle 2 has node index 8 outside [0, 8)"},
+        TopologyCase{"index_negative", [](TopologyData& d, Limits&) { d.triangles[0] = -3; },
+                     ErrorCode::kInvalidMesh, "triangle 0 has node index -3"},
+        TopologyCase{"repeated", [](TopologyData& d, Limits&) { d.triangles[5] = d.triangles[4]; },
+                     ErrorCode::kInvalidMesh, "triangle 1 uses node"},
+        TopologyCase{"nan_rest", [](TopologyData& d, Limits&) { d.rest[3 * 6 + 2] = kNan; },
+                     ErrorCode::kInvalidMesh, "node 6 has a non-finite rest coordinate"}),
     [](const ::testing::TestParamInfo<TopologyCase>& p) { return std::string(p.param.name); });
 
 TEST(Samples, MessagesNameSceneAndObject) {

@@ -78,6 +78,10 @@ struct Mesh {
   std::vector<std::int64_t> node_ids;  ///< n ids (reported back only), or empty
   std::vector<double> rest_positions;  ///< 3n, metres, x0 y0 z0 x1 ...
   std::vector<std::int32_t> tets;      ///< 4m 0-based node indices, positively oriented
+  /// A surface object (docs/SURFACES.md): 3k 0-based node indices of its triangles, with
+  /// `tets` empty. It meets tet objects only; its vertices and edges in their tets get
+  /// forces. Needs a service of protocol version 2 or later (an older one rejects it).
+  std::vector<std::int32_t> triangles;
 };
 
 /// One object's positions for a frame (views: the data is copied when published).
