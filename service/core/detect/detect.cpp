@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
 
 #include "core/detect/chunked.hpp"
+#include "core/detect/sorted_index_set.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/spatial_order.hpp"
 
@@ -39,6 +41,12 @@ template <typename T>
 void sort_unique(std::vector<T>& v) {
   sort_values(v);
   v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+
+/// p.allFinite(), as three scalar tests that are always inlined (the per-node loops of
+/// set_positions and the cluster refit).
+inline bool finite3(const Eigen::Vector3d& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
 }
 
 /// CSR of item -> owners from a per-owner list of items.
@@ -183,7 +191,7 @@ void CollisionBody::set_positions(const Positions& positions) {
     Aabb b;
     for (std::size_t i = begin; i < end; ++i) {
       const Eigen::Vector3d p = positions.col(static_cast<Eigen::Index>(i));
-      if (p.allFinite()) b.extend(p);
+      if (finite3(p)) b.extend(p);
     }
     part[c] = b;
   });
@@ -206,20 +214,21 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
         Aabb b;
         for (const Index i : cluster_nodes_.row(static_cast<Index>(c))) {
           const Eigen::Vector3d p = positions.col(i);
-          if (p.allFinite()) b.extend(p);
+          if (finite3(p)) b.extend(p);
         }
         tet_boxes_[c] = b;
       }
     });
     clusters_ready_ = true;
   }
+  // The clusters partition the tets: their rows, merged in tet order through a bitmap
+  // (a sort of the few thousand tets near a contact cost more than the rest of the cull).
   out.clear();
+  detail::SortedIndexSet set(near_bits_, tets_.size());
   for (Index c = 0; c < cluster_tets_.rows(); ++c)
-    if (tet_boxes_[c].overlaps(region)) {
-      const auto row = cluster_tets_.row(c);
-      out.insert(out.end(), row.begin(), row.end());
-    }
-  sort_values(out);
+    if (tet_boxes_[c].overlaps(region))
+      for (const Index t : cluster_tets_.row(c)) set.insert(t);
+  set.drain(out);
 }
 
 void CollisionBody::ensure_bounds(std::span<const Index> tets, bool spheres) {
@@ -369,12 +378,13 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   st.tets_b_in_box = subset_b_.size();
 
   BvhSide bvh;
+  const bool local_tree = !full_tree && kind == BroadPhaseKind::kBvh;
   if (full_tree) {
     if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
     for (std::size_t k = 0; k < subset_b_.size(); ++k)
       box_slot_[subset_b_[k]] = static_cast<Index>(k);
     bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
-  } else if (kind == BroadPhaseKind::kBvh) {
+  } else if (local_tree) {
     local_tree_.build(boxes_b_);
     bvh.tree = &local_tree_;
     bvh.tet_boxes = boxes_b_;
@@ -392,15 +402,12 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   geom_a_.tets.clear();
   for (const TetPair& p : candidates_)
     if (geom_a_.tets.empty() || geom_a_.tets.back() != p.tet_a) geom_a_.tets.push_back(p.tet_a);
-  if (seen_.size() < b.tets_.size()) seen_.resize(b.tets_.size(), 0);
   geom_b_.tets.clear();
-  for (const TetPair& p : candidates_)
-    if (!seen_[p.tet_b]) {
-      seen_[p.tet_b] = 1;
-      geom_b_.tets.push_back(p.tet_b);
-    }
-  for (const Index t : geom_b_.tets) seen_[t] = 0;
-  sort_values(geom_b_.tets);
+  {
+    detail::SortedIndexSet set(bits_, b.tets_.size());
+    for (const TetPair& p : candidates_) set.insert(p.tet_b);
+    set.drain(geom_b_.tets);
+  }
   build_geometry(a, geom_a_);
   build_geometry(b, geom_b_);
 
@@ -422,35 +429,40 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   }
   st.overlapping = out.overlapping.size();
 
-  // Marked tets and, for each, the tets of the other object it overlaps.
+  // Marked tets and, for each, the tets of the other object it overlaps (as geometry
+  // slots, which follow tet order).
+  const std::size_t num_overlapping = out.overlapping.size();
   rows_a_.offsets.clear();
-  rows_a_.items.resize(out.overlapping.size());
-  for (std::size_t i = 0; i < out.overlapping.size(); ++i) {
+  rows_a_.items.resize(num_overlapping);
+  for (std::size_t i = 0; i < num_overlapping; ++i) {
     const TetPair& p = out.overlapping[i];
     if (out.marked_a.empty() || out.marked_a.back() != p.tet_a) {
       out.marked_a.push_back(p.tet_a);
       rows_a_.offsets.push_back(static_cast<Index>(i));
     }
-    rows_a_.items[i] = p.tet_b;
+    rows_a_.items[i] = geom_b_.slot[p.tet_b];
   }
-  rows_a_.offsets.push_back(static_cast<Index>(out.overlapping.size()));
+  rows_a_.offsets.push_back(static_cast<Index>(num_overlapping));
 
-  keys_.resize(out.overlapping.size());
-  for (std::size_t i = 0; i < out.overlapping.size(); ++i)
-    keys_[i] = (static_cast<std::uint64_t>(out.overlapping[i].tet_b) << 32) |
-               static_cast<std::uint32_t>(out.overlapping[i].tet_a);
-  sort_values(keys_);
+  // B's rows: a counting sort of the pairs on tet_b's slot. The pairs come sorted by
+  // (tet_a, tet_b), so each row of B receives its tets of A in increasing order.
+  counts_.assign(geom_b_.tets.size(), 0);
+  for (const TetPair& p : out.overlapping) ++counts_[geom_b_.slot[p.tet_b]];
   rows_b_.offsets.clear();
-  rows_b_.items.resize(keys_.size());
-  for (std::size_t i = 0; i < keys_.size(); ++i) {
-    const Index tb = static_cast<Index>(keys_[i] >> 32);
-    if (out.marked_b.empty() || out.marked_b.back() != tb) {
-      out.marked_b.push_back(tb);
-      rows_b_.offsets.push_back(static_cast<Index>(i));
+  Index filled = 0;
+  for (std::size_t s = 0; s < geom_b_.tets.size(); ++s) {
+    const Index count = counts_[s];
+    if (count > 0) {
+      out.marked_b.push_back(geom_b_.tets[s]);
+      rows_b_.offsets.push_back(filled);
     }
-    rows_b_.items[i] = static_cast<Index>(keys_[i] & 0xffffffffULL);
+    counts_[s] = filled;
+    filled += count;
   }
-  rows_b_.offsets.push_back(static_cast<Index>(keys_.size()));
+  rows_b_.offsets.push_back(filled);
+  rows_b_.items.resize(num_overlapping);
+  for (const TetPair& p : out.overlapping)
+    rows_b_.items[counts_[geom_b_.slot[p.tet_b]]++] = geom_a_.slot[p.tet_a];
 
   const auto intrusion_start = Clock::now();
   if (!out.overlapping.empty() && (options_.intruding_nodes || options_.intruding_edges)) {
@@ -481,23 +493,16 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
 void Detector::collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges) {
   // The nodes (or edges) of the marked tets of X, each once, sorted.
   const std::size_t count = edges ? x.edges_.size() : static_cast<std::size_t>(x.num_nodes_);
-  if (seen_.size() < count) seen_.resize(count, 0);
-  features_.clear();
-  const auto add = [&](Index f) {
-    if (!seen_[f]) {
-      seen_[f] = 1;
-      features_.push_back(f);
-    }
-  };
+  detail::SortedIndexSet set(bits_, count);
   for (const Index t : marked) {
     if (edges) {
-      for (const Index e : x.tet_edges_[t]) add(e);
+      for (const Index e : x.tet_edges_[t]) set.insert(e);
     } else {
-      for (const Index v : x.tets_[t]) add(v);
+      for (const Index v : x.tets_[t]) set.insert(v);
     }
   }
-  for (const Index f : features_) seen_[f] = 0;
-  sort_values(features_);
+  features_.clear();
+  set.drain(features_);
 }
 
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
@@ -516,15 +521,15 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                          // The first tet of Y (in tet order) containing the node, among the tets
                          // overlapped by the marked tets around it. Rows repeat tets; no need to
                          // sort them: a tet not before the best found so far is skipped.
+                         // Slots follow tet order: the smallest slot is the first tet.
                          Index best = std::numeric_limits<Index>::max();
                          Eigen::Vector4d bary = Eigen::Vector4d::Zero();
                          for (const Index t : x.node_tets_.row(node)) {
                            const Index r = row_of_[t];
                            if (r < 0) continue;
                            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
-                             const Index ty = rows.items[k];
-                             if (ty >= best) break;  // rows are sorted
-                             const Index slot = gy.slot[ty];
+                             const Index slot = rows.items[k];
+                             if (slot >= best) break;  // rows are sorted
                              const TetBox& box = gy.boxes[slot];
                              const double tol = rel * box.scale;
                              if (!((p.array() >= box.lo.array() - tol).all() &&
@@ -532,14 +537,14 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                                continue;
                              const PointInTet hit = point_in_tet(p, gy.geom[slot], tol);
                              if (hit.inside) {
-                               best = ty;
+                               best = slot;
                                bary = hit.bary;
                                break;
                              }
                            }
                          }
                          if (best != std::numeric_limits<Index>::max())
-                           node_parts_[c].push_back({node, best, bary});
+                           node_parts_[c].push_back({node, gy.tets[best], bary});
                        }
                      });
   detail::concat_parts(node_parts_, chunks, out);
@@ -590,8 +595,7 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
             const Index r = row_of_[t];
             if (r < 0) continue;
             for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
-              const Index ty = rows.items[k];
-              const Index slot = gy.slot[ty];
+              const Index slot = rows.items[k];
               if (marks.mark[slot] == now) continue;
               marks.mark[slot] = now;
               const TetBox& box = gy.boxes[slot];
@@ -601,7 +605,8 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
                 continue;
               const SegmentClip clip = clip_segment_tet(p0, p1, gy.geom[slot], tol);
               if (clip.hit)
-                hits.push_back({{edge, ty, clip.lambda_in, clip.lambda_out}, tol / length});
+                hits.push_back(
+                    {{edge, gy.tets[slot], clip.lambda_in, clip.lambda_out}, tol / length});
             }
           }
           std::sort(hits.begin(), hits.end(),

@@ -119,8 +119,9 @@ class CollisionBody {
   std::vector<Aabb> tet_boxes_;  ///< per cluster: box of its tets, this frame
   bool clusters_ready_ = false;  ///< tet_boxes_ refitted for this frame
   std::vector<std::uint32_t> box_frame_, sphere_frame_;  ///< per tet: frame bounds were made
-  std::uint32_t frame_ = 0;   ///< set_positions() calls, never 0 after the first
-  std::vector<Index> stale_;  ///< scratch for ensure_bounds()
+  std::uint32_t frame_ = 0;               ///< set_positions() calls, never 0 after the first
+  std::vector<Index> stale_;              ///< scratch for ensure_bounds()
+  std::vector<std::uint64_t> near_bits_;  ///< scratch bitmap of tets_near(), all 0 between calls
 
   const Positions* positions_ = nullptr;
   Aabb box_;
@@ -151,7 +152,8 @@ class Detector {
   [[nodiscard]] std::span<const TetPair> candidates() const { return candidates_; }
 
  private:
-  /// For each marked tet of X (sorted), the sorted list of tets of Y it overlaps.
+  /// For each marked tet of X (sorted), the tets of Y it overlaps, as sorted slots of Y's
+  /// Geometry (slots follow tet order, so a row sorted by slot is sorted by tet).
   struct Rows {
     std::vector<Index> offsets;
     std::vector<Index> items;
@@ -193,10 +195,10 @@ class Detector {
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
   Geometry geom_a_, geom_b_;
-  std::vector<std::uint64_t> keys_;
   Rows rows_a_, rows_b_;
-  std::vector<Index> row_of_;       ///< scratch: tet of X -> its row, or -1
-  std::vector<std::uint8_t> seen_;  ///< scratch: feature flags
+  std::vector<Index> row_of_;        ///< scratch: tet of X -> its row, or -1
+  std::vector<Index> counts_;        ///< scratch: counting sort of the rows of B
+  std::vector<std::uint64_t> bits_;  ///< scratch bitmap (tets or features), all 0 between uses
   std::vector<Index> features_;
   detail::ChunkBuffers<IntrudingNode> node_parts_;
   detail::ChunkBuffers<IntrudingEdge> edge_parts_;
