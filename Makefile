@@ -11,6 +11,8 @@ DEB_PACKAGES += openssl
 # sd_notify (Type=notify unit); `make package` and tests/package: CPack's DEB generator
 # runs dpkg-shlibdeps (dpkg-dev), file and readelf (binutils)
 DEB_PACKAGES += libsystemd-dev dpkg-dev file binutils
+# The Python module (client/python, docs/PYTHON.md), its tests and examples/python
+DEB_PACKAGES += pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
