@@ -16,6 +16,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -74,16 +75,17 @@ std::string shape_text(const py::array& a) {
 /// and `expected` otherwise. `integers`: only integer dtypes are accepted.
 py::array numeric_array(const py::handle& obj, const std::string& name, const std::string& expected,
                         bool integers) {
+  const auto type_name = [&] { return std::string(py::str(py::type::of(obj).attr("__name__"))); };
   py::array a = py::array::ensure(obj);
-  if (!a)
-    raise_type(name + ": expected " + expected + ", got " +
-               std::string(py::str(py::type::of(obj).attr("__name__"))));
+  if (!a) raise_type(name + ": expected " + expected + ", got " + type_name());
   // dtype.kind read as the attribute: GCC's -Wnull-dereference flags the inlined
   // descriptor access of pybind11's dtype::kind() (a false positive at -O3).
   const auto kind_text = a.dtype().attr("kind").cast<std::string>();
   const char kind = kind_text.empty() ? '?' : kind_text.front();
   const bool ok =
       integers ? (kind == 'i' || kind == 'u') : (kind == 'f' || kind == 'i' || kind == 'u');
+  if (!ok && kind == 'O' && !py::isinstance<py::array>(obj))  // None, a str, a ragged list
+    raise_type(name + ": expected " + expected + ", got " + type_name());
   if (!ok)
     raise_type(name + ": expected " + expected + ", got dtype " + std::string(py::str(a.dtype())));
   return a;
@@ -162,7 +164,9 @@ struct PyObjectForces {
     forces = whole ? owning_array(std::move(f.forces), {k, 3})
                    : owning_array(std::move(f.forces), {static_cast<py::ssize_t>(f.forces.size())});
     nodes = owning_array(std::move(f.nodes), {k});
-    if (f.stiffness.empty())
+    // None: the service computes no blocks (pipeline.compute_stiffness off); an answer
+    // without contact has (0, 3, 3) blocks either way.
+    if (f.stiffness.empty() && k > 0)
       stiffness = py::none();
     else if (f.stiffness.size() == 9 * static_cast<std::size_t>(k))
       stiffness = owning_array(std::move(f.stiffness), {k, 3, 3});
@@ -327,9 +331,13 @@ class PyClient {
 
   std::uint32_t version(const std::string& object) const { return get()->version(object); }
 
-  void publish(std::int64_t frame, const py::dict& positions, const py::object& velocities_obj) {
+  void publish(std::int64_t frame, const py::object& positions_obj,
+               const py::object& velocities_obj) {
     auto c = get();
     if (frame < 0) raise_value("frame: expected a frame number >= 0, got " + std::to_string(frame));
+    if (!py::isinstance<py::dict>(positions_obj))
+      raise_type("positions: expected a dict {object: (n, 3) float64 array}");
+    const auto positions = positions_obj.cast<py::dict>();
     py::dict velocities;
     if (!velocities_obj.is_none()) {
       if (!py::isinstance<py::dict>(velocities_obj))
@@ -480,18 +488,20 @@ PYBIND11_MODULE(tetcollide, m) {
   py::module_::import("atexit").attr("register")(
       py::cpp_function([] { g_rejected_error = py::object(); }));
 
-  py::enum_<tc::client::StatusCode>(m, "Status",
-                                    "Status codes of the protocol (docs/PROTOCOL.md, Errors).")
-      .value("OK", tc::client::StatusCode::kOk)
-      .value("IO", tc::client::StatusCode::kIo)
-      .value("PARSE", tc::client::StatusCode::kParse)
-      .value("UNSUPPORTED", tc::client::StatusCode::kUnsupported)
-      .value("INVALID_MESH", tc::client::StatusCode::kInvalidMesh)
-      .value("INVALID_ARGUMENT", tc::client::StatusCode::kInvalidArgument)
-      .value("UNKNOWN_OBJECT", tc::client::StatusCode::kUnknownObject)
-      .value("STALE_VERSION", tc::client::StatusCode::kStaleVersion)
-      .value("OVERSIZED", tc::client::StatusCode::kOversized)
-      .value("INTERNAL", tc::client::StatusCode::kInternal);
+  // An IntEnum (equal to the ints of ObjectForces.status and Registration.code); a
+  // pybind11 enum of an enum class never compares equal to an int.
+  {
+    py::dict codes;
+    for (std::int32_t code = 0;
+         code <= static_cast<std::int32_t>(tc::client::StatusCode::kInternal); ++code) {
+      std::string name = tc::client::status_name(code);
+      for (auto& ch : name) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+      codes[py::str(name)] = code;
+    }
+    m.attr("Status") = py::module_::import("enum").attr("IntEnum")(
+        "Status", codes, py::arg("module") = "tetcollide");
+    m.attr("Status").attr("__doc__") = "Status codes of the protocol (docs/PROTOCOL.md, Errors).";
+  }
   m.def("status_name", &tc::client::status_name, py::arg("code"),
         "Lower-case name of a status code ('ok', 'invalid_mesh', ...).");
 
@@ -542,7 +552,8 @@ cannot be read and ValueError naming the file and line (or byte) when it is malf
       .def_readonly("forces", &PyObjectForces::forces, "float64 (k, 3): forces on those nodes, N")
       .def_readonly(
           "stiffness", &PyObjectForces::stiffness,
-          "float64 (k, 3, 3): row-major df/dx blocks, N/m; None unless the service computes them")
+          "float64 (k, 3, 3): row-major df/dx blocks, N/m; None when the service computes none "
+          "(pipeline.compute_stiffness off) and k > 0")
       .def_readonly("state_frame", &PyObjectForces::state_frame,
                     "frame of this object's state the forces come from (-1: rest positions)")
       .def_readonly("answer_id", &PyObjectForces::answer_id)
