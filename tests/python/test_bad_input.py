@@ -27,6 +27,7 @@ REGISTER_CASES = [
     (dict(nodes=NODES.ravel()), ValueError, r"nodes: expected shape \(n, 3\), got \(15,\)"),
     (dict(nodes=NODES[None]), ValueError, r"nodes: expected shape \(n, 3\), got \(1, 5, 3\)"),
     (dict(nodes=np.zeros((0, 3))), ValueError, r"nodes: expected shape \(n, 3\) with n >= 4"),
+    (dict(nodes=NODES[:3], tets=TETS[:1, :]), ValueError, r"nodes: expected shape \(n, 3\) with n >= 4, got \(3, 3\)"),
     (dict(nodes=NODES.astype(np.complex128)), TypeError, r"nodes: expected .* got dtype complex128"),
     (dict(tets=TETS.astype(np.float64)), TypeError,
      r"tets: expected an integer array of shape \(m, 4\), got dtype float64"),
