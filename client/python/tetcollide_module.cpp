@@ -111,10 +111,14 @@ F64 positions_array(const py::handle& obj, const std::string& name, py::ssize_t 
   return F64::ensure(a);
 }
 
+/// A float as Python writes it ("-1.0", "nan"), for messages (GIL held).
+std::string float_text(double value) {
+  return py::repr(py::float_(value));
+}
+
 std::chrono::milliseconds timeout_ms(double seconds, const char* name = "timeout") {
   if (!std::isfinite(seconds) || seconds < 0.0 || seconds > 1e9)
-    raise_value(std::string(name) + ": expected seconds in [0, 1e9], got " +
-                std::to_string(seconds));
+    raise_value(std::string(name) + ": expected seconds in [0, 1e9], got " + float_text(seconds));
   return std::chrono::milliseconds(static_cast<std::int64_t>(std::llround(seconds * 1000.0)));
 }
 
@@ -298,8 +302,7 @@ class PyClient {
          {std::pair{stiffness, "stiffness"}, std::pair{damping, "damping"},
           std::pair{max_force, "max_force"}})
       if (!std::isfinite(value) || value < 0.0)
-        raise_value(std::string(name) + ": expected a finite value >= 0, got " +
-                    std::to_string(value));
+        raise_value(std::string(name) + ": expected a finite value >= 0, got " + float_text(value));
     tc::client::ObjectParams params;
     params.stiffness = stiffness;
     params.damping = damping;
