@@ -11,8 +11,10 @@
 // DIR/frames.txt: the number of frames F; DIR/state_<f>_<name>.f64 (n x 3 float64) for
 // every frame f < F and every object. Writes DIR/cpp_<f>_<name>.{nodes.i32,forces.f64,
 // stiffness.f64} (k, k x 3, k x 3 x 3 values, native byte order) and DIR/cpp_summary.txt,
-// one line per answer: "f name answered_frame status topology_version k". Exit 0 when
+// one line per answer: "f name answered_frame status topology_version k"; prints the
+// median and largest round trip (publish + wait_forces) of the frames. Exit 0 when
 // every frame was answered, 1 otherwise (the reason on stderr), 2 on bad usage.
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -87,18 +89,25 @@ int run(std::uint32_t domain, const std::string& scene, const std::string& dir) 
   std::ifstream frames_file(dir + "/frames.txt");
   std::int64_t frames = 0;
   frames_file >> frames;
-  std::ofstream summary(dir + "/cpp_summary.txt");
-  for (std::int64_t f = 0; f < frames; ++f) {
-    std::vector<std::vector<double>> positions;
-    std::vector<tc::client::ObjectState> states;
-    positions.reserve(objects.size());
+  // Every state is read before the first frame: the round trips printed at the end are
+  // publish + wait only (docs/PYTHON.md compares them with the module's).
+  std::vector<std::vector<std::vector<double>>> positions(static_cast<std::size_t>(frames));
+  for (std::int64_t f = 0; f < frames; ++f)
     for (const auto& o : objects)
-      positions.push_back(
+      positions[static_cast<std::size_t>(f)].push_back(
           read_raw<double>(dir + "/state_" + std::to_string(f) + "_" + o.name + ".f64"));
+  std::ofstream summary(dir + "/cpp_summary.txt");
+  std::vector<double> round_trips_ms;
+  for (std::int64_t f = 0; f < frames; ++f) {
+    std::vector<tc::client::ObjectState> states;
     for (std::size_t i = 0; i < objects.size(); ++i)
-      states.push_back({objects[i].name, positions[i]});
+      states.push_back({objects[i].name, positions[static_cast<std::size_t>(f)][i]});
+    const auto start = std::chrono::steady_clock::now();
     client->publish_states(f, states);
     const auto answer = client->wait_forces(f, 30s);
+    round_trips_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count());
     if (!answer) {
       std::cerr << "forces_reference: no answer to frame " << f << "\n";
       return 1;
@@ -111,6 +120,12 @@ int run(std::uint32_t domain, const std::string& scene, const std::string& dir) 
       summary << f << ' ' << a.object << ' ' << answer->frame << ' ' << a.status << ' '
               << a.topology_version << ' ' << a.nodes.size() << '\n';
     }
+  }
+  if (!round_trips_ms.empty()) {
+    std::sort(round_trips_ms.begin(), round_trips_ms.end());
+    std::printf("round trip p50 %.3f ms, max %.3f ms over %zu frames\n",
+                round_trips_ms[round_trips_ms.size() / 2], round_trips_ms.back(),
+                round_trips_ms.size());
   }
   return 0;
 }
