@@ -11,10 +11,12 @@ DEB_PACKAGES += openssl
 # sd_notify (Type=notify unit); `make package` and tests/package: CPack's DEB generator
 # runs dpkg-shlibdeps (dpkg-dev), file and readelf (binutils)
 DEB_PACKAGES += libsystemd-dev dpkg-dev file binutils
+# The Python module (client/python, docs/PYTHON.md), its tests and examples/python
+DEB_PACKAGES += pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
-  format-check bench clean help reliability load soak package
+  format-check bench clean help reliability load soak package example-python
 # Seconds each fuzz target runs in `make fuzz` / `make fuzz-short` (CI).
 FUZZ_SECONDS ?= 60
 FUZZ_SHORT_SECONDS ?= 15
@@ -32,6 +34,7 @@ help:
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job (daemon with contact stiffness blocks)"
 	@echo "make package     Debian packages in $(BUILD_DIR)/packages/ (docs/DEPLOYMENT.md)"
+	@echo "make example-python  a NumPy simulator drops a ball on the box (docs/PYTHON.md)"
 	@echo "make format      clang-format every source file"
 	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
 	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"
@@ -95,6 +98,15 @@ package: deps $(BUILD_DIR)/build.ninja
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target tetcollided tetcollide
 	cd $(BUILD_DIR) && cpack -G DEB -B $(abspath $(BUILD_DIR))/packages
 	@ls -1 $(BUILD_DIR)/packages/*.deb
+
+# examples/python/drop_ball.py (docs/PYTHON.md) with the interpreter the module is built
+# for (Debian's /usr/bin/python3, which may not be the python3 first on PATH); it starts
+# and stops its own daemon. Outputs in out/python_drop_ball/.
+example-python: deps $(BUILD_DIR)/build.ninja
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target tetcollided tetcollide_python
+	py=$$(sed -n 's/^TC_PYTHON_EXECUTABLE:INTERNAL=//p' $(BUILD_DIR)/CMakeCache.txt); \
+	PYTHONPATH=$(BUILD_DIR)/python $${py:-python3} examples/python/drop_ball.py \
+	  --daemon $(BUILD_DIR)/bin/tetcollided
 
 bench: build
 	./scripts/bench.sh

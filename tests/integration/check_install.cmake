@@ -1,4 +1,4 @@
-# cmake -DBUILD_DIR=... -DPREFIX=... -DLIBDIR=... -P check_install.cmake
+# cmake -DBUILD_DIR=... -DPREFIX=... -DLIBDIR=... [-DPYTHON=... -DPYTHON_DIR=...] -P check_install.cmake
 # Installs the build into PREFIX and checks the background-service layout: daemon,
 # default config, Cyclone config, systemd unit (Type=notify) with the prefix's paths, the
 # client library with its CMake package and .pc file (tests/package builds programs
@@ -46,6 +46,28 @@ execute_process(COMMAND ${PREFIX}/bin/tetcollide --version RESULT_VARIABLE rc
                 OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "installed tetcollide does not run: ${out}${err}")
+endif()
+# The installed Python module (TC_PYTHON) imports from the prefix with nothing but
+# PYTHONPATH and uses the installed client library (its RUNPATH is relative), not the
+# build tree's.
+if(PYTHON)
+  file(GLOB module ${PREFIX}/${PYTHON_DIR}/tetcollide.*.so)
+  if(NOT module)
+    message(FATAL_ERROR "not installed: ${PREFIX}/${PYTHON_DIR}/tetcollide.*.so")
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${PREFIX}/${PYTHON_DIR}
+                          ${PYTHON} -c "import tetcollide, sys
+n, t = tetcollide.read_mesh(sys.argv[1])
+assert n.shape == (907, 3) and t.shape == (3276, 4), (n.shape, t.shape)
+maps = [l.split()[-1] for l in open('/proc/self/maps') if 'libtetcollide_client' in l]
+assert maps and all(m.startswith(sys.argv[2]) for m in maps), maps
+assert tetcollide.__file__.startswith(sys.argv[2]), tetcollide.__file__
+" ${PREFIX}/share/tetcollide/data/meshes/box.msh ${PREFIX}/
+                  WORKING_DIRECTORY ${PREFIX}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "the installed Python module does not work: ${out}${err}")
+  endif()
 endif()
 # The installed daemon starts on the installed files (killed after 3 s).
 execute_process(COMMAND ${CMAKE_COMMAND} -E env

@@ -1,0 +1,245 @@
+"""tetcollide.Client against a real tetcollided: registration, lock-step frames whose
+forces equal the C++ client's bit for bit, a cut, the service's rejections as values, the
+GIL released while waiting, closing."""
+import os
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import tetcollide
+from conftest import ball_at
+
+FRAMES = 8
+
+
+def ball_states(ball_nodes):
+    """The ball sinking into the box's top face (z = 0.15) by 4 mm a frame, squashed a
+    little so the states are not rigid motions, from 4 mm above it to 24 mm inside."""
+    out = []
+    for f in range(FRAMES):
+        p = ball_at(ball_nodes, 0.154 - 0.004 * f)
+        p[:, 0] *= 1.0 + 0.01 * f
+        out.append(p)
+    return out
+
+
+def register_ball_and_box(c, ball, box):
+    assert c.register("box", box[0], box[1], static=True) == 1
+    assert c.register("ball", ball[0], ball[1]) == 1
+    for name in ("box", "ball"):
+        r = c.wait_registered(name, 20.0)
+        assert r.done and r.ok, r
+        r.check(name)
+
+
+def test_registration_is_reported_and_versioned(client, scene, ball, box):
+    register_ball_and_box(client, ball, box)
+    assert client.version("ball") == 1 and client.version("box") == 1
+    assert client.version("unknown") == 0
+    registered = {(e.object, e.topology_version) for e in client.status_events()
+                  if e.scene == scene and e.kind == tetcollide.StatusEvent.Kind.REGISTERED}
+    assert {("ball", 1), ("box", 1)} <= registered
+    # The answers of the rest positions: no contact, an empty (0, 3) array per object.
+    client.publish(0, {"ball": ball_at(ball[0], 0.3), "box": box[0]})
+    answer = client.wait_forces(0, 20.0)
+    assert answer is not None and answer.frame == 0 and answer.ok
+    assert sorted(answer) == ["ball", "box"] and len(answer) == 2 and "ball" in answer
+    assert answer["ball"].forces.shape == (0, 3) and answer["ball"].nodes.shape == (0,)
+    with pytest.raises(KeyError, match="nope"):
+        answer["nope"]
+
+
+def test_forces_equal_the_cpp_client_bit_for_bit(daemon, client, scene, ball, box, workdir):
+    """The same lock-step frames through this module (this scene) and through
+    libtetcollide_client (tests/python/forces_reference.cpp, another scene of the same
+    daemon): nodes, forces and stiffness blocks byte for byte."""
+    states = ball_states(ball[0])
+    with open(workdir / "objects.txt", "w") as f:
+        for name, (nodes, tets), static in (("box", box, 1), ("ball", ball, 0)):
+            f.write("%s %d %d %d\n" % (name, len(nodes), len(tets), static))
+            nodes.astype(np.float64).tofile(workdir / (name + ".nodes.f64"))
+            tets.astype(np.int32).tofile(workdir / (name + ".tets.i32"))
+    (workdir / "frames.txt").write_text("%d\n" % FRAMES)
+    for f, p in enumerate(states):
+        p.tofile(workdir / ("state_%d_ball.f64" % f))
+        box[0].tofile(workdir / ("state_%d_box.f64" % f))
+    reference = subprocess.run(
+        [os.environ["TC_FORCES_REFERENCE"], "--domain", str(daemon.domain), "--scene", scene + "_cpp",
+         "--dir", str(workdir)], capture_output=True, text=True, timeout=120)
+    assert reference.returncode == 0, reference.stderr
+
+    register_ball_and_box(client, ball, box)
+    contacts = 0
+    for f, p in enumerate(states):
+        client.publish(f, {"ball": p, "box": box[0]})
+        answer = client.wait_forces(f, 30.0)
+        assert answer is not None and answer.frame == f and answer.ok, answer
+        for name in ("ball", "box"):
+            mine = answer[name]
+            stem = workdir / ("cpp_%d_%s" % (f, name))
+            cpp_nodes = np.fromfile(str(stem) + ".nodes.i32", dtype=np.int32)
+            cpp_forces = np.fromfile(str(stem) + ".forces.f64", dtype=np.float64)
+            cpp_stiffness = np.fromfile(str(stem) + ".stiffness.f64", dtype=np.float64)
+            assert mine.nodes.dtype == np.int32 and mine.forces.dtype == np.float64
+            assert mine.nodes.tobytes() == cpp_nodes.tobytes(), (f, name)
+            assert mine.forces.shape == (len(cpp_nodes), 3)
+            assert mine.forces.tobytes() == cpp_forces.tobytes(), (f, name)
+            assert mine.stiffness.shape == (len(cpp_nodes), 3, 3)
+            assert mine.stiffness.tobytes() == cpp_stiffness.tobytes(), (f, name)
+            contacts += len(cpp_nodes)
+        # Newton's third law over the pair: what the ball gets, the box gets back.
+        total = answer["ball"].forces.sum(axis=0) + answer["box"].forces.sum(axis=0)
+        scale = max(1.0, np.abs(answer["ball"].forces).sum())
+        assert np.abs(total).max() <= 1e-9 * scale
+    summary = (workdir / "cpp_summary.txt").read_text().split("\n")
+    assert len([line for line in summary if line]) == 2 * FRAMES
+    assert contacts > 100, "the frames must have contact for the comparison to mean anything"
+    # The ball is pushed up, out of the box.
+    assert answer["ball"].forces[:, 2].sum() > 0
+
+
+def test_a_cut_replaces_the_topology(client, ball, box):
+    register_ball_and_box(client, ball, box)
+    nodes, tets = box
+    # The cut: the box loses every tet with its centroid at x > 0.1; the nodes no tet
+    # uses any more are dropped and the rest renumbered.
+    keep = nodes[tets].mean(axis=1)[:, 0] <= 0.1
+    used = np.unique(tets[keep])
+    renumber = np.full(len(nodes), -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    cut_nodes, cut_tets = nodes[used], renumber[tets[keep]]
+    assert client.register("box", cut_nodes, cut_tets, static=True) == 2
+    r = client.wait_registered("box", 20.0)
+    assert r.ok, r
+    assert client.version("box") == 2
+    # The old node count is bad input now, locally.
+    with pytest.raises(ValueError, match=r"positions\['box'\]: expected shape \(%d, 3\)" % len(used)):
+        client.publish(1, {"box": nodes, "ball": ball[0]})
+    # A ball over the part that was cut away touches nothing; over the rest it does.
+    for frame, x in ((1, 0.35), (2, -0.25)):
+        p = ball_at(ball[0], 0.13) + np.array([x, 0.0, 0.0])
+        client.publish(frame, {"box": cut_nodes, "ball": p})
+        answer = client.wait_forces(frame, 30.0)
+        assert answer is not None and answer.ok, answer
+        assert answer["box"].topology_version == 2 and answer["ball"].topology_version == 1
+        touching = len(answer["ball"].nodes) > 0
+        assert touching == (x < 0), (x, answer["ball"])
+        assert answer["box"].nodes.max(initial=0) < len(used)
+    # Explicit version numbers are sent as given.
+    assert client.register("box", cut_nodes, cut_tets, static=True, version=7) == 7
+    assert client.wait_registered("box", 20.0).ok
+
+
+def test_service_rejections_are_values_and_check_raises(client, scene, ball, box):
+    register_ball_and_box(client, ball, box)
+    # Inverted tets: accepted locally (indices in range), rejected by the service.
+    inverted = ball[1][:, [1, 0, 2, 3]]
+    client.register("inverted", ball[0], inverted)
+    r = client.wait_registered("inverted", 20.0)
+    assert r.done and not r.ok and r.code == tetcollide.Status.INVALID_MESH
+    assert "inverted" in r.message
+    with pytest.raises(tetcollide.RejectedError, match="invalid_mesh") as e:
+        r.check("inverted")
+    assert e.value.object == "inverted" and e.value.code == 4 and e.value.code_name == "invalid_mesh"
+    assert isinstance(e.value, RuntimeError)
+    # A non-finite position: the answer carries the rejection, the status topic the reason.
+    p = ball[0].copy()
+    p[3, 1] = np.nan
+    client.publish(0, {"ball": p, "box": box[0]})
+    answer = client.wait_forces(0, 20.0)
+    assert answer is not None and not answer.ok
+    assert answer["ball"].status == tetcollide.Status.INVALID_MESH
+    assert answer["ball"].status_name == "invalid_mesh"
+    assert answer["box"].status == 0
+    with pytest.raises(tetcollide.RejectedError, match="'ball': invalid_mesh"):
+        answer.raise_for_status()
+    deadline = time.monotonic() + 10
+    errors = []
+    while not errors and time.monotonic() < deadline:
+        client.poll(0.1)
+        errors = [e for e in client.status_events() if e.scene == scene and e.object == "ball"
+                  and e.kind == tetcollide.StatusEvent.Kind.ERROR and e.frame == 0]
+    assert errors and "node 3 has a non-finite position" in errors[0].message
+
+
+def test_waiting_releases_the_gil(client, ball, box):
+    register_ball_and_box(client, ball, box)
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(time.monotonic())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=tick)
+    t.start()
+    try:
+        start = time.monotonic()
+        assert client.wait_forces(99, 0.5) is None  # never published: a timeout
+        end = time.monotonic()
+    finally:
+        stop.set()
+        t.join()
+    assert 0.45 <= end - start < 5.0
+    # The thread ran all through the wait (it could not, were the GIL held by it).
+    during = [x for x in ticks if start + 0.1 < x < end - 0.1]
+    assert len(during) > 50, len(during)
+
+
+def test_closing_removes_the_objects(daemon, scene, ball, box):
+    with tetcollide.Client(scene, domain=daemon.domain) as watcher:
+        assert watcher.wait_for_service(20.0)
+        with tetcollide.Client(scene, domain=daemon.domain) as c:
+            assert not c.closed
+            c.register("ball", ball[0], ball[1])
+            assert c.wait_registered("ball", 20.0).ok
+            c.register("other", box[0], box[1], static=True)
+            assert c.wait_registered("other", 20.0).ok
+            c.unregister("other")
+            with pytest.raises(ValueError, match="'other' is not registered"):
+                c.publish(0, {"other": box[0]})
+        assert c.closed
+        c.close()  # idempotent
+        for call in (lambda: c.wait_for_service(0.1), lambda: c.publish(0, {"ball": ball[0]}),
+                     lambda: c.wait_forces(0, 0.1), lambda: c.status_events()):
+            with pytest.raises(tetcollide.ClientError, match="closed"):
+                call()
+        removed = set()
+        deadline = time.monotonic() + 20
+        while removed != {"ball", "other"} and time.monotonic() < deadline:
+            watcher.poll(0.1)
+            removed |= {e.object for e in watcher.status_events()
+                        if e.scene == scene and e.kind == tetcollide.StatusEvent.Kind.REMOVED}
+        assert removed == {"ball", "other"}
+
+
+def test_frame_stats_come_with_the_answers(client, ball, box):
+    register_ball_and_box(client, ball, box)
+    client.publish(0, {"ball": ball_at(ball[0], 0.14), "box": box[0]})
+    assert client.wait_forces(0, 20.0) is not None
+    deadline = time.monotonic() + 10
+    stats = []
+    while not stats and time.monotonic() < deadline:
+        client.poll(0.1)
+        stats = [s for s in client.frame_stats() if s.frame == 0]
+    assert stats and stats[0].objects == 2 and stats[0].contacts > 0 and stats[0].max_depth > 0
+
+
+def test_static_objects_are_written_first(client, ball, box):
+    """A static object's state written after the non-static ones would be answered by a
+    second computation after frames.assembly_wait_ms (50 ms here); the module writes static
+    states first whatever the dict's order."""
+    register_ball_and_box(client, ball, box)
+    p = ball_at(ball[0], 0.3)
+    times = []
+    for f in range(12):
+        start = time.monotonic()
+        client.publish(f, {"ball": p, "box": box[0]})  # the static box last
+        answer = client.wait_forces(f, 20.0)
+        times.append(time.monotonic() - start)
+        assert answer is not None and answer.frame == f and sorted(answer) == ["ball", "box"]
+    assert np.median(times[2:]) < 0.025, times

@@ -1,0 +1,38 @@
+"""examples/python/drop_ball.py, run as the README says (it starts its own daemon): the
+ball falls, bounces and comes to rest on the box with the contact carrying its weight."""
+import csv
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from conftest import SOURCE_DIR, private_domain
+
+
+def test_drop_ball_comes_to_rest_on_the_box(workdir):
+    out = workdir / "out"
+    run = subprocess.run(
+        [sys.executable, str(SOURCE_DIR / "examples" / "python" / "drop_ball.py"),
+         "--daemon", os.environ["TC_DAEMON"], "--domain", str(private_domain()), "--out", str(out)],
+        capture_output=True, text=True, timeout=150)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "outputs in" in run.stdout
+    assert (out / "drop_ball.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with open(out / "trajectory.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 700
+    col = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    weight = col["weight_n"][0]
+    # Free fall first (no contact, g within 1%), then contact: the force peaks above the
+    # weight at the impact, the ball goes up again, and at the end the contact carries
+    # the weight (mean of the last 0.2 s within 30%) with the ball nearly still.
+    free = col["contact_nodes"] == 0
+    assert free[:50].all()
+    v, t = col["velocity_z_m_s"], col["time_s"]
+    assert abs((v[50] - v[10]) / (t[50] - t[10]) + 9.81) < 0.1
+    assert col["contact_force_z_n"].max() > 2 * weight
+    assert (v[np.argmax(col["contact_force_z_n"]):] > 0.1).any()  # a bounce
+    assert abs(col["contact_force_z_n"][-200:].mean() / weight - 1.0) < 0.3
+    assert abs(v[-1]) < 0.05
+    assert 0.12 < col["lowest_z_m"][-1] < 0.15

@@ -1,0 +1,64 @@
+"""tetcollide.read_mesh: shapes, dtypes, arrays that own the reader's buffers, errors."""
+import sys
+
+import numpy as np
+import pytest
+
+import tetcollide
+from conftest import MESHES, SOURCE_DIR
+
+TEST_MESHES = SOURCE_DIR / "tests" / "data" / "meshes"
+
+
+def test_box_has_the_documented_counts_and_bounds():
+    nodes, tets = tetcollide.read_mesh(str(MESHES / "box.msh"))
+    assert nodes.shape == (907, 3) and nodes.dtype == np.float64
+    assert tets.shape == (3276, 4) and tets.dtype == np.int32
+    assert nodes.flags["C_CONTIGUOUS"] and tets.flags["C_CONTIGUOUS"]
+    # data/meshes/README.md: box 1.0 x 1.0 x 0.3 centred at the origin
+    np.testing.assert_allclose(nodes.min(axis=0), [-0.5, -0.5, -0.15], atol=1e-12)
+    np.testing.assert_allclose(nodes.max(axis=0), [0.5, 0.5, 0.15], atol=1e-12)
+    assert tets.min() == 0 and tets.max() == 906
+    # Positively oriented tets (the reader never flips them; the file's are).
+    a, b, c, d = (nodes[tets[:, i]] for i in range(4))
+    volumes = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6.0
+    assert (volumes > 0).all()
+    assert volumes.sum() == pytest.approx(0.3, rel=1e-9)
+
+
+def test_arrays_own_the_readers_buffers_without_a_copy():
+    nodes, tets = tetcollide.read_mesh(MESHES / "ball.msh")  # a pathlib.Path works too
+    # Not a copy into NumPy's own memory: a base object (the capsule) owns the buffer,
+    # and the arrays outlive everything else of the reader.
+    assert not nodes.flags["OWNDATA"] and nodes.base is not None
+    assert not tets.flags["OWNDATA"] and tets.base is not None
+    assert sys.getrefcount(nodes.base) >= 2
+    nodes_copy = nodes.copy()
+    del tets
+    assert np.array_equal(nodes, nodes_copy)
+    nodes[0, 0] = 42.0  # writable, and really the array's own
+    assert nodes[0, 0] == 42.0
+
+
+def test_tetgen_pair_is_read():
+    nodes, tets = tetcollide.read_mesh(TEST_MESHES / "tetgen_cube.1.node")
+    assert nodes.ndim == 2 and nodes.shape[1] == 3 and len(nodes) > 0
+    assert tets.ndim == 2 and tets.shape[1] == 4 and len(tets) > 0
+    assert tets.min() >= 0 and tets.max() < len(nodes)
+
+
+def test_a_missing_file_is_an_oserror_naming_it():
+    with pytest.raises(OSError, match="no_such_mesh.msh"):
+        tetcollide.read_mesh("no_such_mesh.msh")
+
+
+@pytest.mark.parametrize("name, line", [("broken_garbage.msh", r":1: expected \$MeshFormat"),
+                                        ("broken_tet_3_nodes.msh", r":\d+: ")])
+def test_a_malformed_file_is_a_value_error_naming_file_and_line(name, line):
+    with pytest.raises(ValueError, match=name + line):
+        tetcollide.read_mesh(TEST_MESHES / name)
+
+
+def test_a_path_of_the_wrong_type_is_a_type_error():
+    with pytest.raises(TypeError):
+        tetcollide.read_mesh(42)
