@@ -264,30 +264,56 @@ class PyClient {
                                 double max_force, bool is_static, const std::string& depth,
                                 const std::string& response, const py::object& node_ids_obj,
                                 std::uint32_t version) {
+    return register_cells(object, nodes_obj, tets_obj, "tets", 4, stiffness, damping, max_force,
+                          is_static, depth, response, node_ids_obj, version);
+  }
+
+  std::uint32_t register_surface(const std::string& object, const py::object& nodes_obj,
+                                 const py::object& triangles_obj, double stiffness, double damping,
+                                 double max_force, bool is_static, const std::string& response,
+                                 const py::object& node_ids_obj, std::uint32_t version) {
+    // A surface has no depth map: the depth method is never used ("cpfm" is sent).
+    return register_cells(object, nodes_obj, triangles_obj, "triangles", 3, stiffness, damping,
+                          max_force, is_static, "cpfm", response, node_ids_obj, version);
+  }
+
+  /// A tet object (`name` "tets", k = 4 nodes per cell) or a surface object
+  /// ("triangles", k = 3): nodes (n, 3), cells (m, k) node indices in [0, n).
+  std::uint32_t register_cells(const std::string& object, const py::object& nodes_obj,
+                               const py::object& cells_obj, const std::string& cells_name, int k,
+                               double stiffness, double damping, double max_force, bool is_static,
+                               const std::string& depth, const std::string& response,
+                               const py::object& node_ids_obj, std::uint32_t version) {
     auto c = get();
     if (object.empty()) raise_value("object: expected a non-empty name");
     tc::client::Mesh mesh;
     const F64 nodes = positions_array(nodes_obj, "nodes", -1);
     const py::ssize_t n = nodes.shape(0);
-    if (n < 4)  // a tet has four distinct nodes
-      raise_value("nodes: expected shape (n, 3) with n >= 4, got " + shape_text(nodes));
+    if (n < k)  // a cell has k distinct nodes
+      raise_value("nodes: expected shape (n, 3) with n >= " + std::to_string(k) + ", got " +
+                  shape_text(nodes));
     mesh.rest_positions.assign(nodes.data(), nodes.data() + 3 * n);
 
-    const py::array tets_any =
-        numeric_array(tets_obj, "tets", "an integer array of shape (m, 4)", true);
-    check_shape(tets_any, "tets", -1, 4, "(m, 4)");
-    if (tets_any.shape(0) == 0) raise_value("tets: expected shape (m, 4) with m >= 1, got (0, 4)");
-    const I64 tets = I64::ensure(tets_any);
-    if (!tets) raise_type("tets: values do not fit int64");
-    const py::ssize_t m = tets.shape(0);
-    mesh.tets.resize(static_cast<std::size_t>(4 * m));
-    const std::int64_t* t = tets.data();
-    for (py::ssize_t i = 0; i < 4 * m; ++i) {
+    const std::string shape = "(m, " + std::to_string(k) + ")";
+    const std::string& name = cells_name;
+    const py::array cells_any =
+        numeric_array(cells_obj, name, "an integer array of shape " + shape, true);
+    check_shape(cells_any, name, -1, k, shape);
+    if (cells_any.shape(0) == 0)
+      raise_value(name + ": expected shape " + shape + " with m >= 1, got (0, " +
+                  std::to_string(k) + ")");
+    const I64 cells = I64::ensure(cells_any);
+    if (!cells) raise_type(name + ": values do not fit int64");
+    const py::ssize_t m = cells.shape(0);
+    std::vector<std::int32_t>& out = k == 4 ? mesh.tets : mesh.triangles;
+    out.resize(static_cast<std::size_t>(k * m));
+    const std::int64_t* t = cells.data();
+    for (py::ssize_t i = 0; i < k * m; ++i) {
       if (t[i] < 0 || t[i] >= n)
-        raise_value("tets[" + std::to_string(i / 4) + ", " + std::to_string(i % 4) +
+        raise_value(name + "[" + std::to_string(i / k) + ", " + std::to_string(i % k) +
                     "] = " + std::to_string(t[i]) +
                     " is out of range: expected a node index in [0, " + std::to_string(n) + ")");
-      mesh.tets[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(t[i]);
+      out[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(t[i]);
     }
     if (!node_ids_obj.is_none()) {
       const py::array ids_any =
@@ -298,11 +324,12 @@ class PyClient {
       const I64 ids = I64::ensure(ids_any);
       mesh.node_ids.assign(ids.data(), ids.data() + n);
     }
-    for (const auto& [value, name] :
+    for (const auto& [value, param] :
          {std::pair{stiffness, "stiffness"}, std::pair{damping, "damping"},
           std::pair{max_force, "max_force"}})
       if (!std::isfinite(value) || value < 0.0)
-        raise_value(std::string(name) + ": expected a finite value >= 0, got " + float_text(value));
+        raise_value(std::string(param) + ": expected a finite value >= 0, got " +
+                    float_text(value));
     tc::client::ObjectParams params;
     params.stiffness = stiffness;
     params.damping = damping;
@@ -729,6 +756,18 @@ objects). One thread per Client; every wait releases the GIL.)")
 
 The topology is copied once into the sample (the C++ API takes vectors). The service's
 verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arguments.)")
+      .def("register_surface", &PyClient::register_surface, py::arg("object"), py::arg("nodes"),
+           py::arg("triangles"), py::kw_only(), py::arg("stiffness") = 1e4,
+           py::arg("damping") = 0.0, py::arg("max_force") = 0.0, py::arg("static") = false,
+           py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
+           R"(Publishes (or replaces) a surface object's topology (docs/SURFACES.md, protocol 2).
+
+  nodes      (n, 3) float64 rest positions, metres
+  triangles  (m, 3) integer 0-based node indices (closed or open, any orientation)
+  other arguments as for register() (a surface has no depth map: no `depth`)
+
+A surface meets tet objects only: its vertices and edges inside their tets are pushed
+out, the tets' nodes take the reactions. Answers and states as for register().)")
       .def("wait_registered", &PyClient::wait_registered, py::arg("object"),
            py::arg("timeout") = 5.0,
            "Waits (seconds) for the service's verdict on the object's current version.")

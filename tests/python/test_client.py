@@ -243,3 +243,38 @@ def test_static_objects_are_written_first(client, ball, box):
         times.append(time.monotonic() - start)
         assert answer is not None and answer.frame == f and sorted(answer) == ["ball", "box"]
     assert np.median(times[2:]) < 0.025, times
+
+
+def plate(n=4, width=0.2, z=0.14):
+    """A square surface (n x n cells, two triangles each) centred on the box's top face
+    (z = 0.15), at height z."""
+    xs = np.linspace(-width / 2, width / 2, n + 1)
+    nodes = np.array([[x, y, z] for y in xs for x in xs], dtype=np.float64)
+    tris = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            tris += [[a, a + 1, a + n + 2], [a, a + n + 2, a + n + 1]]
+    return nodes, np.array(tris, dtype=np.int32)
+
+
+def test_a_surface_object_is_pushed_out_of_the_box(client, box):
+    """register_surface (issue 19): every vertex of a plate 1 cm inside the box is pushed
+    up, the box takes the reactions."""
+    nodes, tris = plate()
+    assert client.register("box", box[0], box[1], static=True) == 1
+    assert client.register_surface("plate", nodes, tris, response="point") == 1
+    for name in ("box", "plate"):
+        client.wait_registered(name, 20.0).check(name)
+    client.publish(0, {"plate": nodes})
+    answer = client.wait_forces(0, 20.0)
+    assert answer is not None and answer.ok
+    on_plate, on_box = answer["plate"], answer["box"]
+    assert on_plate.nodes.shape == (len(nodes),)
+    assert np.all(on_plate.forces[:, 2] > 0.0)
+    total = on_plate.forces.sum(axis=0) + on_box.forces.sum(axis=0)
+    assert np.linalg.norm(total) < 1e-9 * np.linalg.norm(on_plate.forces.sum(axis=0))
+    with pytest.raises(ValueError, match=r"triangles: expected shape \(m, 3\)"):
+        client.register_surface("bad", nodes, np.zeros((2, 4), dtype=np.int32))
+    with pytest.raises(ValueError, match=r"triangles\[1, 2\] = 99 is out of range"):
+        client.register_surface("bad", nodes, np.array([[0, 1, 2], [1, 2, 99]]))
