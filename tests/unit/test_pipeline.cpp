@@ -11,7 +11,9 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "core/common/log.hpp"
 #include "core/io/mesh_io.hpp"
+#include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -79,6 +81,47 @@ TEST_P(PipelineResponse, OverlappingBoxesPushApartAlongX) {
 INSTANTIATE_TEST_SUITE_P(PointSegmentAuto, PipelineResponse,
                          ::testing::Values(ResponseKind::kPoint, ResponseKind::kSegment,
                                            ResponseKind::kAuto));
+
+TEST(PairOptions, CombinesTheTwoObjectsParameters) {
+  ObjectParams a, b;
+  a.stiffness = 1e3;
+  b.stiffness = 1e9;
+  a.damping = 0.0;
+  b.damping = 5.0;
+  ResponseOptions o = pair_options(a, b);
+  EXPECT_EQ(o.stiffness, 1e3);
+  EXPECT_EQ(o.damping, 5.0);
+  EXPECT_EQ(o.kind, ResponseKind::kAuto);
+  a.response = ResponseKind::kPoint;
+  EXPECT_EQ(pair_options(a, b).kind, ResponseKind::kPoint);
+  b.response = ResponseKind::kSegment;
+  EXPECT_EQ(pair_options(a, b).kind, ResponseKind::kSegment);
+  EXPECT_EQ(pair_options(b, a).kind, ResponseKind::kSegment);
+}
+
+// A sliver is registered, and said once through the log facade (the daemon's sink is
+// spdlog); a clean mesh says nothing.
+TEST(Pipeline, SliversAreKeptWithAWarning) {
+  std::vector<std::pair<LogLevel, std::string>> logged;
+  set_log_sink([&](LogLevel level, std::string_view message) {
+    logged.emplace_back(level, std::string(message));
+  });
+  TetMesh sliver = test::single_tet();
+  sliver.positions.col(3) = Eigen::Vector3d(0.3, 0.3, 0.004);
+  const double q = tet_quality(sliver.positions, sliver.tets[0]);
+  ASSERT_GT(q, 1e-6);
+  ASSERT_LT(q, 1e-2);
+  Pipeline pipeline;
+  EXPECT_TRUE(pipeline.set_topology("clean", 1, box_at(0.0, 2), {}).ok());
+  EXPECT_TRUE(logged.empty());
+  EXPECT_TRUE(pipeline.set_topology("thin", 3, sliver, {}).ok());
+  set_log_sink({});
+  ASSERT_EQ(logged.size(), 1u);
+  EXPECT_EQ(logged[0].first, LogLevel::kWarn);
+  EXPECT_NE(logged[0].second.find("object 'thin' version 3: 1 sliver tets (first: 0)"),
+            std::string::npos)
+      << logged[0].second;
+}
 
 TEST(Pipeline, SeparatedObjectsCostOnlyTheBoxTest) {
   Pipeline pipeline;

@@ -468,23 +468,6 @@ TEST(Validation, NoOverlapCostsNothing) {
   EXPECT_EQ(r.stats.point_contacts + r.stats.segment_contacts + r.stats.inactive, 0u);
 }
 
-TEST(PairOptions, CombinesTheTwoObjectsParameters) {
-  ObjectParams a, b;
-  a.stiffness = 1e3;
-  b.stiffness = 1e9;
-  a.damping = 0.0;
-  b.damping = 5.0;
-  ResponseOptions o = pair_options(a, b);
-  EXPECT_EQ(o.stiffness, 1e3);
-  EXPECT_EQ(o.damping, 5.0);
-  EXPECT_EQ(o.kind, ResponseKind::kAuto);
-  a.response = ResponseKind::kPoint;
-  EXPECT_EQ(pair_options(a, b).kind, ResponseKind::kPoint);
-  b.response = ResponseKind::kSegment;
-  EXPECT_EQ(pair_options(a, b).kind, ResponseKind::kSegment);
-  EXPECT_EQ(pair_options(b, a).kind, ResponseKind::kSegment);
-}
-
 // ---- Stiff sweep ------------------------------------------------------------------------
 
 /// A rigid box A (1 kg, 0.6 m, one cell) dropped from rest onto a static box B under

@@ -1,4 +1,4 @@
-// Internal to service/core/detect (include from .cpp files only: it pulls in TBB).
+// Internal to service/core (include from .cpp files only: it pulls in TBB).
 //
 // The chunk buffers of the deterministic parallel loops (core/common/parallel_chunks.hpp):
 // each chunk writes its own buffer and the buffers are concatenated in chunk order.
@@ -8,8 +8,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/common/chunk_buffer.hpp"
 #include "core/common/parallel_chunks.hpp"
-#include "core/detect/chunk_buffer.hpp"
 
 namespace tc::detail {
 

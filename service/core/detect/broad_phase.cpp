@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <numeric>
 
-#include "core/detect/chunked.hpp"
+#include "core/common/chunked.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {

@@ -22,7 +22,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/detect/chunk_buffer.hpp"
+#include "core/common/chunk_buffer.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
 #include "core/mesh/tet_mesh.hpp"

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/detect/chunked.hpp"
+#include "core/common/chunked.hpp"
 #include "core/detect/sorted_index_set.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/spatial_order.hpp"

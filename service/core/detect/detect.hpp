@@ -18,8 +18,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/common/chunk_buffer.hpp"
 #include "core/detect/broad_phase.hpp"
-#include "core/detect/chunk_buffer.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
 #include "core/mesh/tet_mesh.hpp"

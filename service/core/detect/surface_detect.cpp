@@ -5,8 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/common/chunked.hpp"
 #include "core/detect/broad_phase.hpp"
-#include "core/detect/chunked.hpp"
 #include "core/detect/tri_tet_overlap.hpp"
 #include "core/mesh/topology.hpp"
 

@@ -2,7 +2,8 @@
 // the boundary features (triangles of a tet mesh, segments of a 2D triangle mesh) and
 // their adjacency on the surface, which CFFM's local descent walks.
 //
-// Also the topology of the paper's 2D case (triangle meshes in the plane).
+// The 2D case's mesh and topology (the paper's triangle meshes in the plane) are in
+// core/mesh/mesh2d.hpp.
 #pragma once
 
 #include <array>
@@ -10,33 +11,11 @@
 #include <utility>
 #include <vector>
 
+#include "core/mesh/mesh2d.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 
 namespace tc {
-
-/// Topology of a 2D triangle mesh (the paper's Fig. 9 and 10 case), the counterpart of
-/// Topology for the depth maps. All lists are sorted.
-struct Topology2 {
-  Index num_nodes = 0;
-  Index num_triangles = 0;
-  /// Boundary segments (triangle edges used by exactly one triangle), (a, b) with a < b.
-  std::vector<std::array<Index, 2>> boundary_segments;
-  /// Nodes of the boundary segments.
-  std::vector<Index> boundary_nodes;
-  /// n flags: 1 for a boundary node.
-  std::vector<std::uint8_t> is_boundary_node;
-  /// n rows: the nodes sharing a triangle edge with node i.
-  Csr node_adjacency;
-  /// Nodes used by no triangle.
-  std::vector<Index> orphan_nodes;
-};
-
-/// Builds the topology of k triangles over n nodes.
-///
-/// @param[in] triangles  k x 3 node indices, each in [0, num_nodes).
-/// @param[in] num_nodes  n.
-Topology2 build_topology_2d(std::span<const std::array<Index, 3>> triangles, Index num_nodes);
 
 /// The boundary surface of dimension D - 1 of a D-dimensional mesh: triangles for D = 3,
 /// segments for D = 2, with the adjacency a local descent needs.

@@ -24,12 +24,16 @@
 
 #include "core/common/result.hpp"
 #include "core/distance/boundary_surface.hpp"
-#include "core/io/mesh_io.hpp"
+#include "core/mesh/mesh2d.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
-#include "core/scene/scene.hpp"
 
 namespace tc {
+
+/// How the depth map of an object is computed (docs/DEPTH_MAPS.md): the paper's Closest
+/// Point (kCpfm) or Closest Feature (kCffm) Fast Marching, or the exact distance to the
+/// boundary (kExact, the reference).
+enum class DepthMethod { kCpfm, kCffm, kExact };
 
 /// How CFFM chooses the feature a node keeps (docs/DEPTH_MAPS.md, "CFFM variants", has
 /// the measured error and cost of each).

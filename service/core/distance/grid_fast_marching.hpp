@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
-#include "core/io/mesh_io.hpp"
+#include "core/mesh/mesh2d.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 

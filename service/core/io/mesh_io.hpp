@@ -33,17 +33,10 @@
 #include <vector>
 
 #include "core/common/result.hpp"
+#include "core/mesh/mesh2d.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
 namespace tc {
-
-/// A triangle mesh in the plane (the paper's 2D test case): n x 2 positions, k x 3
-/// triangles, node ids as in the file.
-struct TriMesh2 {
-  std::vector<std::int64_t> node_ids;
-  Eigen::Matrix<double, 2, Eigen::Dynamic> positions;
-  std::vector<std::array<Index, 3>> triangles;
-};
 
 /// Reads a mesh by extension: `.msh` (Gmsh), `.node` or `.ele` (TetGen, the other file
 /// beside it with the same stem).

@@ -1,7 +1,7 @@
 // Triangle surfaces in 3D (paper Fig. 14): instruments from STL files, shells, cloth.
 // A surface object has nodes and triangles and no tets; its vertices and edges are what
 // detection tests against the tets of a tetrahedral object. Not to be confused with
-// TriMesh2 (core/io/mesh_io.hpp), the planar triangle mesh of the 2D depth maps.
+// TriMesh2 (core/mesh/mesh2d.hpp), the planar triangle mesh of the 2D depth maps.
 //
 // Validation follows core/mesh/validate.hpp: defects are found, counted, listed by
 // index, never fixed; require_valid_surface() turns a report into an error that names

@@ -8,6 +8,18 @@
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
+
+Csr csr_from_pairs(Index rows, std::vector<std::pair<Index, Index>>& pairs) {
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  Csr csr;
+  csr.offsets.assign(static_cast<std::size_t>(rows) + 1, 0);
+  for (const auto& p : pairs) ++csr.offsets[static_cast<std::size_t>(p.first) + 1];
+  std::partial_sum(csr.offsets.begin(), csr.offsets.end(), csr.offsets.begin());
+  csr.indices.resize(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) csr.indices[i] = pairs[i].second;
+  return csr;
+}
 namespace {
 
 struct FaceRecord {
@@ -15,18 +27,6 @@ struct FaceRecord {
   Index tet;
   std::int8_t local;  // local index of the opposite node
 };
-
-Csr build_csr(Index rows, std::vector<std::pair<Index, Index>>& entries) {
-  std::sort(entries.begin(), entries.end());
-  entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
-  Csr csr;
-  csr.offsets.assign(static_cast<std::size_t>(rows) + 1, 0);
-  for (const auto& e : entries) ++csr.offsets[static_cast<std::size_t>(e.first) + 1];
-  std::partial_sum(csr.offsets.begin(), csr.offsets.end(), csr.offsets.begin());
-  csr.indices.resize(entries.size());
-  for (std::size_t i = 0; i < entries.size(); ++i) csr.indices[i] = entries[i].second;
-  return csr;
-}
 
 Index find_root(std::vector<Index>& parent, Index i) {
   while (parent[i] != i) {
@@ -159,8 +159,8 @@ Topology build_topology_reference(std::span<const Tet> tets, Index num_nodes) {
     adjacency.emplace_back(e[0], e[1]);
     adjacency.emplace_back(e[1], e[0]);
   }
-  topo.node_adjacency = build_csr(num_nodes, adjacency);
-  topo.node_tets = build_csr(num_nodes, incidence);
+  topo.node_adjacency = csr_from_pairs(num_nodes, adjacency);
+  topo.node_tets = csr_from_pairs(num_nodes, incidence);
 
   add_orphans_and_components(topo);
   return topo;
@@ -348,7 +348,7 @@ Topology build_edge_topology(std::span<const std::array<Index, 2>> edges, Index 
     adjacency.emplace_back(e[0], e[1]);
     adjacency.emplace_back(e[1], e[0]);
   }
-  topo.node_adjacency = build_csr(num_nodes, adjacency);
+  topo.node_adjacency = csr_from_pairs(num_nodes, adjacency);
   return topo;
 }
 

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "core/mesh/tet_mesh.hpp"
@@ -23,6 +24,12 @@ struct Csr {
     return {indices.data() + offsets[i], static_cast<std::size_t>(offsets[i + 1] - offsets[i])};
   }
 };
+
+/// CSR of (row, value) pairs: rows sorted, values within a row sorted and unique. The
+/// pairs are sorted and deduplicated in place.
+/// @param[in] rows   number of rows; every pair's row in [0, rows)
+/// @param[in,out] pairs  (row, value) pairs
+Csr csr_from_pairs(Index rows, std::vector<std::pair<Index, Index>>& pairs);
 
 /// Everything the pipeline derives from the tets alone (no positions).
 ///

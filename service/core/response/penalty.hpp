@@ -15,9 +15,12 @@
 #include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
-#include "core/scene/scene.hpp"
 
 namespace tc {
+
+/// Which penalty response an object pair uses: point-in-object (5.1), segment-in-object
+/// (5.2), or kAuto, by mesh density (docs/RESPONSE.md section 6).
+enum class ResponseKind { kPoint, kSegment, kAuto };
 
 /// What a unit of penetration is measured against.
 enum class ForceMeasure {

@@ -211,21 +211,6 @@ ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& 
                                                                : ResponseKind::kPoint;
 }
 
-ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
-  ResponseOptions o;
-  if (a.response == b.response)
-    o.kind = a.response;
-  else if (a.response == ResponseKind::kAuto)
-    o.kind = b.response;
-  else if (b.response == ResponseKind::kAuto)
-    o.kind = a.response;
-  else
-    o.kind = ResponseKind::kSegment;
-  o.stiffness = std::min(a.stiffness, b.stiffness);
-  o.damping = std::max(a.damping, b.damping);
-  return o;
-}
-
 void ResponseAccumulator::NodeSums::prepare(Index n, bool blocks) {
   const auto size = static_cast<std::size_t>(n);
   if (force.size() < size) {

@@ -6,20 +6,28 @@
 //   compute_pair_response()   one-off: one pair -> sparse forces on A and on B
 //   ResponseAccumulator       the same, keeping its buffers across pairs and frames
 //   add_object_forces()       sums one pair's forces into an object's total (sorted merge)
-//   cap_object_forces()       the per-node force cap (ObjectParams::max_force)
+//   cap_object_forces()       the per-node force cap (an object's max_force)
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/common/result.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/response/penalty.hpp"
-#include "core/scene/scene.hpp"
 
 namespace tc {
+
+/// Sparse per-node forces on one object for one frame.
+struct ObjectForces {
+  std::string object;
+  std::vector<Index> nodes;                ///< sorted node indices (0-based, file order)
+  std::vector<Eigen::Vector3d> forces;     ///< one per entry of nodes, N
+  std::vector<Eigen::Matrix3d> stiffness;  ///< empty, or one df/dx block per entry, N/m
+};
 
 /// Counts of one or more pair responses.
 struct ResponseStats {
@@ -85,12 +93,6 @@ ContactDensity measure_contact_density(const ResponseObject& x, std::span<const 
 /// relative to the contact, rms_edge > threshold * contact_extent, else kPoint.
 ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
                                   double threshold);
-
-/// Options of a pair from the two objects' parameters: the kind asked by either object
-/// (an explicit kind beats kAuto, kSegment beats kPoint), the smaller stiffness (the
-/// softer object sets the contact), the larger damping. max_force stays per object
-/// (cap_object_forces). The other fields keep their defaults.
-ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b);
 
 /// Computes and reuses buffers for pair responses. Not thread-safe: one per thread.
 class ResponseAccumulator {

@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "core/common/log.hpp"
 #include "core/detect/detect.hpp"
 #include "core/detect/surface_detect.hpp"
 #include "core/distance/boundary_bvh.hpp"
@@ -119,6 +120,21 @@ Status Pipeline::Impl::check_params(const std::string& object, const ObjectParam
   return {};
 }
 
+ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
+  ResponseOptions o;
+  if (a.response == b.response)
+    o.kind = a.response;
+  else if (a.response == ResponseKind::kAuto)
+    o.kind = b.response;
+  else if (b.response == ResponseKind::kAuto)
+    o.kind = a.response;
+  else
+    o.kind = ResponseKind::kSegment;
+  o.stiffness = std::min(a.stiffness, b.stiffness);
+  o.damping = std::max(a.damping, b.damping);
+  return o;
+}
+
 Pipeline::Pipeline(PipelineConfig config) : impl_(std::make_unique<Impl>()) {
   impl_->config = std::move(config);
   DetectOptions options;
@@ -141,6 +157,14 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
   if (Status st = require_valid(report, "object '" + object + "'"); !st) return st;
   if (mesh.tets.empty()) return Error{ErrorCode::kInvalidMesh, "object '" + object + "': no tets"};
   if (Status st = Impl::check_params(object, params); !st) return st;
+  if (report.sliver.count > 0) {
+    // Slivers are accepted (a cut or a coarse mesher makes them); say so once per version.
+    ValidationReport slivers;
+    slivers.sliver = report.sliver;
+    log(LogLevel::kWarn, "object '" + object + "' version " + std::to_string(version) + ": " +
+                             slivers.summary() +
+                             " (quality below 0.01), kept: contacts in them are less accurate");
+  }
   auto slot = std::make_unique<SceneObject>();
   slot->name = object;
   slot->version = version;

@@ -18,6 +18,7 @@
 #include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/response/penalty.hpp"
+#include "core/response/response.hpp"
 #include "core/scene/scene.hpp"
 
 namespace tc {
@@ -102,6 +103,12 @@ struct FrameOutput {
   std::vector<std::pair<std::string, std::size_t>> settled_by_object;
 };
 
+/// Options of a pair from the two objects' parameters: the kind asked by either object
+/// (an explicit kind beats kAuto, kSegment beats kPoint), the smaller stiffness (the
+/// softer object sets the contact), the larger damping. max_force stays per object
+/// (cap_object_forces). The other fields keep their defaults.
+ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b);
+
 class Pipeline {
  public:
   explicit Pipeline(PipelineConfig config = {});
@@ -111,7 +118,9 @@ class Pipeline {
 
   /// Registers or replaces (a cut) an object's topology. The mesh is validated
   /// (structure, inverted and degenerate tets at its rest positions); on error the
-  /// previous version, if any, stays in place. Topology-derived data is built here.
+  /// previous version, if any, stays in place. Sliver tets are kept, with a warning
+  /// through the core's log facade (core/common/log.hpp). Topology-derived data is built
+  /// here.
   Status set_topology(const std::string& object, std::uint32_t version, TetMesh mesh,
                       const ObjectParams& params);
 

@@ -1,22 +1,13 @@
-// The data a frame of a scene carries in and out of the core pipeline. The daemon maps
-// DDS samples to and from these types; the CLI and the tests build them directly.
+// What an object of a scene is registered with: its contact parameters, which pick the
+// depth map (core/distance) and the response (core/response) of its pairs. The daemon
+// maps the DDS samples' parameters to these; the CLI and the tests build them directly.
+// The per-frame output (ObjectForces) is the response's type (core/response/response.hpp).
 #pragma once
 
-#include <Eigen/Core>
-#include <cstdint>
-#include <string>
-#include <vector>
-
-#include "core/common/result.hpp"
-#include "core/mesh/tet_mesh.hpp"
+#include "core/distance/depth_solver.hpp"
+#include "core/response/penalty.hpp"
 
 namespace tc {
-
-/// How the depth map of an object is computed.
-enum class DepthMethod { kCpfm, kCffm, kExact };
-
-/// Which penalty response an object pair uses. kAuto picks by mesh density.
-enum class ResponseKind { kPoint, kSegment, kAuto };
 
 /// Per-object parameters, sent with the object's topology.
 struct ObjectParams {
@@ -28,14 +19,6 @@ struct ObjectParams {
                            ///< static objects are never tested against each other
   DepthMethod depth = DepthMethod::kCpfm;
   ResponseKind response = ResponseKind::kAuto;
-};
-
-/// Sparse per-node forces on one object for one frame.
-struct ObjectForces {
-  std::string object;
-  std::vector<Index> nodes;                ///< sorted node indices (0-based, file order)
-  std::vector<Eigen::Vector3d> forces;     ///< one per entry of nodes, N
-  std::vector<Eigen::Matrix3d> stiffness;  ///< empty, or one df/dx block per entry, N/m
 };
 
 }  // namespace tc
