@@ -187,7 +187,11 @@ class AnswerObserver {
       }
       for (dds_return_t i = 0; i < n; ++i)
         if (infos[i].valid_data) on_sample(*static_cast<const T*>(samples[i]), infos[i]);
-      if (n > 0) dds_return_loan(reader, samples, n);
+      if (n > 0)
+        if (const dds_return_t rc = dds_return_loan(reader, samples, n); rc < 0) {
+          error_ = "dds_return_loan: " + protocol::dds_error(rc);
+          return;
+        }
       if (n < 64) return;
     }
   }
