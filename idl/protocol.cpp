@@ -59,11 +59,16 @@ QosPtr topic_qos(Topic topic) {
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
       dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kForcesDepth);
+      // Answers: a client sees only those of the strongest live service of the scene's
+      // shard (ownership strength, dds.ownership_strength); the standbys' are dropped by
+      // the client's reader until the owner's liveliness lease expires.
+      dds_qset_ownership(qos.get(), DDS_OWNERSHIP_EXCLUSIVE);
       break;
     case Topic::kStats:
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
       dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
       dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, kStatsDepth);
+      dds_qset_ownership(qos.get(), DDS_OWNERSHIP_EXCLUSIVE);  // one set of answers, as forces
       break;
     case Topic::kStatus:
       dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, max_blocking);
@@ -81,6 +86,13 @@ QosPtr topic_qos(Topic topic) {
   // simulator's objects leave the scene about 1 s later instead of after Cyclone's 10 s
   // participant lease.
   dds_qset_liveliness(qos.get(), DDS_LIVELINESS_AUTOMATIC, kLivelinessLease);
+  return qos;
+}
+
+QosPtr writer_qos(Topic topic, std::int32_t strength) {
+  QosPtr qos = topic_qos(topic);
+  if (topic == Topic::kForces || topic == Topic::kStats)
+    dds_qset_ownership_strength(qos.get(), strength);
   return qos;
 }
 

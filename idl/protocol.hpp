@@ -40,8 +40,14 @@ struct QosDeleter {
 using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
 
 /// QoS of a topic; readers and writers are created with the same QoS so they always
-/// match. Never null (dds_create_qos aborts on out-of-memory).
+/// match. ContactForces and FrameStats have EXCLUSIVE ownership (a service's writers add
+/// their ownership strength, see writer_qos); the other topics SHARED. Never null
+/// (dds_create_qos aborts on out-of-memory).
 QosPtr topic_qos(Topic topic);
+
+/// QoS of a service's writer of `topic`: topic_qos plus, for the EXCLUSIVE topics, the
+/// ownership `strength` (the strongest live writer's samples are the ones readers see).
+QosPtr writer_qos(Topic topic, std::int32_t strength);
 
 /// Publisher/subscriber QoS selecting a DDS partition; null when `partition` is empty
 /// (the default partition).

@@ -173,6 +173,11 @@ Expected<ReplayReport> replay(const std::vector<Record>& records, const ReplayOp
           return Error{ErrorCode::kIo, "no tetcollided announced READY on domain " +
                                            std::to_string(options.domain) + " within " +
                                            std::to_string(options.service_timeout.count()) + " ms"};
+        if (options.services > 1 && !c.wait_for_readers(options.services, options.service_timeout))
+          return Error{ErrorCode::kIo, "fewer than " + std::to_string(options.services) +
+                                           " services read the states on domain " +
+                                           std::to_string(options.domain) + " after " +
+                                           std::to_string(options.service_timeout.count()) + " ms"};
         service_checked = true;
       }
       // A topology recorded just after a state that needs it (the topics are not ordered

@@ -22,8 +22,11 @@ struct ReplayOptions {
   double rate = 1.0;
   bool check = false;
   std::chrono::milliseconds service_timeout{10000};  ///< wait for a READY service
-  std::chrono::milliseconds frame_timeout{10000};    ///< per frame, re-sends included
-  std::chrono::milliseconds resend_after{500};       ///< re-publish an unanswered frame
+  /// Before the first frame, also wait (service_timeout) until this many services read
+  /// the states: a shard's primary and standbys all compute from the first frame on.
+  std::size_t services = 1;
+  std::chrono::milliseconds frame_timeout{10000};  ///< per frame, re-sends included
+  std::chrono::milliseconds resend_after{500};     ///< re-publish an unanswered frame
   /// Called before each frame is published (index from 0; tests kill the service here).
   std::function<void(std::size_t index, const std::string& scene, std::int64_t frame)> before_frame;
 };

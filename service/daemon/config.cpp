@@ -154,8 +154,13 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
           [&](const YAML::Node& v, const std::string& kk) { c.scenes = p.text_list(v, kk); }},
          {"cyclonedds_config",
           [&](const YAML::Node& v, const std::string& kk) { c.cyclonedds_config = p.text(v, kk); }},
-         {"status_period_s", [&](const YAML::Node& v, const std::string& kk) {
+         {"status_period_s",
+          [&](const YAML::Node& v, const std::string& kk) {
             c.status_period_s = p.real(v, kk, 0.01, 3600.0);
+          }},
+         {"ownership_strength", [&](const YAML::Node& v, const std::string& kk) {
+            c.ownership_strength = static_cast<std::int32_t>(
+                p.integer(v, kk, 0, std::numeric_limits<std::int32_t>::max()));
           }}});
   };
   const auto frames = [&](const YAML::Node& n, const std::string& k) {

@@ -29,6 +29,9 @@ struct DaemonConfig {
   std::vector<std::string> scenes;  ///< scene name patterns served (fnmatch); empty = all
   std::string cyclonedds_config;    ///< Cyclone config (XML or file://), "" = CYCLONEDDS_URI
   double status_period_s = 1.0;     ///< ServiceStatus heartbeat period, seconds
+  /// Ownership strength of the answer writers (ContactForces, FrameStats: EXCLUSIVE):
+  /// clients see the answers of the strongest live daemon serving a scene. 0..2^31-1.
+  std::int32_t ownership_strength = 0;
 
   // threads:
   int threads = 0;  ///< worker threads running scene pipelines; 0 = one per core

@@ -16,7 +16,9 @@ namespace tc::daemon {
 
 class DdsOutbox final : public Outbox {
  public:
-  DdsOutbox(std::string service_id, std::string partition);
+  /// `ownership_strength`: of the ContactForces and FrameStats writers (EXCLUSIVE
+  /// ownership; dds.ownership_strength).
+  DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength);
 
   /// Creates the topics' writers under `participant`. Errors name the DDS call.
   Status create(dds_entity_t participant);
@@ -37,6 +39,7 @@ class DdsOutbox final : public Outbox {
 
   std::string service_id_;
   std::string partition_;
+  std::int32_t ownership_strength_ = 0;
   dds_entity_t forces_writer_ = 0;
   dds_entity_t stats_writer_ = 0;
   dds_entity_t status_writer_ = 0;

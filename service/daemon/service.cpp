@@ -37,7 +37,7 @@ struct Service::Impl {
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
         outbox(config.service_id.empty() ? default_service_id() : config.service_id,
-               config.partition) {}
+               config.partition, config.ownership_strength) {}
 
   DaemonConfig config;
   DdsOutbox outbox;
@@ -216,9 +216,11 @@ Status Service::run() {
   // sample) and the log; outside systemd the notifier does nothing.
   SystemdNotifier notifier(Clock::now());
   s.outbox.set_state(ServiceState::kReady, "ready");
-  spdlog::info("tetcollided ready (service {}, domain {}, partition '{}', scenes {})",
-               s.outbox.service_id(), c.domain, c.partition,
-               c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")));
+  spdlog::info(
+      "tetcollided ready (service {}, domain {}, partition '{}', scenes {}, ownership strength {})",
+      s.outbox.service_id(), c.domain, c.partition,
+      c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")),
+      c.ownership_strength);
   notifier.ready("ready: " + status_line(0, 0, 0.0));
 
   const auto heartbeat_period =

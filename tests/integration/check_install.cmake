@@ -11,7 +11,8 @@ if(NOT rc EQUAL 0)
   message(FATAL_ERROR "cmake --install failed (${rc}): ${out}${err}")
 endif()
 foreach(f bin/tetcollided bin/tetcollide etc/tetcollide/tetcollided.yaml
-          etc/tetcollide/cyclonedds.xml lib/systemd/system/tetcollided.service
+          etc/tetcollide/cyclonedds.xml etc/tetcollide/cyclonedds-network.xml
+          lib/systemd/system/tetcollided.service
           include/tetcollide/client.hpp ${LIBDIR}/libtetcollide_client.so.0
           ${LIBDIR}/cmake/tetcollide/tetcollideConfig.cmake
           ${LIBDIR}/pkgconfig/tetcollide-client.pc share/doc/tetcollided/PROTOCOL.md)

@@ -105,8 +105,10 @@ bool DaemonProcess::start(std::chrono::milliseconds timeout) {
   if (daemon.empty()) return false;
   ++starts_;
   // Each start appends to the same log; readiness is the n-th "ready" line.
-  pid_ = spawn({daemon, "--config", config_.string(), "--domain", std::to_string(domain_)},
-               dir_ / "daemon.out", log_);
+  std::vector<std::string> argv = prefix_;
+  argv.insert(argv.end(),
+              {daemon, "--config", config_.string(), "--domain", std::to_string(domain_)});
+  pid_ = spawn(argv, dir_ / "daemon.out", log_);
   if (pid_ < 0) return false;
   const auto deadline = Clock::now() + timeout;
   while (Clock::now() < deadline) {

@@ -34,6 +34,11 @@ class DaemonProcess {
   DaemonProcess(const DaemonProcess&) = delete;
   DaemonProcess& operator=(const DaemonProcess&) = delete;
 
+  /// Programs the daemon runs under from the next start() on, e.g. `ip netns exec <ns>
+  /// env VAR=value` (VirtualLan::exec_prefix): they must exec it, so that pid() is the
+  /// daemon's.
+  void set_command_prefix(std::vector<std::string> prefix) { prefix_ = std::move(prefix); }
+
   /// Starts the daemon and waits for its "tetcollided ready" log line. False on timeout
   /// or early exit (the log is in log_text()).
   bool start(std::chrono::milliseconds timeout = std::chrono::seconds(20));
@@ -58,6 +63,7 @@ class DaemonProcess {
   std::filesystem::path config_;
   std::filesystem::path log_;
   std::uint32_t domain_;
+  std::vector<std::string> prefix_;
   pid_t pid_ = -1;
   int starts_ = 0;
 };

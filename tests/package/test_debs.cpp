@@ -162,9 +162,9 @@ TEST(DebPackages, EachFileIsWhereDebianWantsItAndInOnePackage) {
   const std::map<std::string, Rule> rules = {
       {"tetcollided",
        {{"/usr/bin/tetcollided", "/etc/tetcollide/tetcollided.yaml",
-         "/etc/tetcollide/cyclonedds.xml", "/usr/lib/systemd/system/tetcollided.service",
-         "/usr/share/doc/tetcollided/PROTOCOL.md", "/usr/share/doc/tetcollided/DEPLOYMENT.md",
-         "/usr/share/doc/tetcollided/tetcollide.idl"},
+         "/etc/tetcollide/cyclonedds.xml", "/etc/tetcollide/cyclonedds-network.xml",
+         "/usr/lib/systemd/system/tetcollided.service", "/usr/share/doc/tetcollided/PROTOCOL.md",
+         "/usr/share/doc/tetcollided/DEPLOYMENT.md", "/usr/share/doc/tetcollided/tetcollide.idl"},
         {"/usr/bin/tetcollided", "/etc/tetcollide/", "/usr/lib/systemd/system/tetcollided.service",
          "/usr/share/doc/tetcollided/"}}},
       {"libtetcollide-client",
@@ -206,7 +206,7 @@ TEST(DebPackages, TheUnitThePcFileAndTheConfigurationNameTheInstalledSystem) {
         << unit;
   EXPECT_EQ(unit.find('@'), std::string::npos) << "unconfigured placeholder:\n" << unit;
   const fs::path source = program_from_env("TC_SOURCE_DIR");
-  for (const char* f : {"tetcollided.yaml", "cyclonedds.xml"})
+  for (const char* f : {"tetcollided.yaml", "cyclonedds.xml", "cyclonedds-network.xml"})
     EXPECT_EQ(file_text(daemon / "etc/tetcollide" / f), file_text(source / "config" / f)) << f;
 
   const fs::path dev = unpack(deb("libtetcollide-client-dev"));
@@ -278,9 +278,10 @@ TEST(DebPackages, TheConfigurationFilesAreConffiles) {
   const Deb& daemon = deb("tetcollided");
   ASSERT_TRUE(daemon.control.count("conffiles"));
   const auto conffiles = lines_of(daemon.control.at("conffiles"));
-  EXPECT_EQ(std::set<std::string>(conffiles.begin(), conffiles.end()),
-            (std::set<std::string>{"/etc/tetcollide/tetcollided.yaml",
-                                   "/etc/tetcollide/cyclonedds.xml"}));
+  EXPECT_EQ(
+      std::set<std::string>(conffiles.begin(), conffiles.end()),
+      (std::set<std::string>{"/etc/tetcollide/tetcollided.yaml", "/etc/tetcollide/cyclonedds.xml",
+                             "/etc/tetcollide/cyclonedds-network.xml"}));
   for (const auto& f : conffiles) EXPECT_TRUE(daemon.paths.count(f)) << f << " is not shipped";
   for (const auto& [name, d] : debs()) {
     if (name != "tetcollided") {
