@@ -26,6 +26,7 @@
 #include "protocol.hpp"
 #include "recording.hpp"
 #include "replayer.hpp"
+#include "sanitizer.hpp"
 #include "scenes.hpp"
 #include "tetcollide/client.hpp"
 #include "virtual_lan.hpp"
@@ -512,8 +513,9 @@ TEST_P(FailoverStreamTest, MeasuresTheFailoverWhileStreaming) {
       answered_after, 100.0 * primary_cpu, 100.0 * standby_cpu);
   RecordProperty("resume_ms", static_cast<int>(resume_ms));
   RecordProperty("lost_in_switch", lost_in_switch);
-  // Within the 1 s lease plus detection and scheduling slack on a shared CI machine.
-  EXPECT_LT(resume_ms, 2000.0);
+  // Within the 1 s lease plus detection and scheduling slack on a shared CI machine (the
+  // slack, not the lease, grows in a sanitizer build).
+  EXPECT_LT(resume_ms, 1000.0 + 1000.0 * test::kTimeSlack);
   EXPECT_LE(lost_in_switch, 2 * rate);
   EXPECT_EQ(mismatched, 0);
   // Frames superseded under load (newest wins) are not failover losses: not bounded here.
@@ -708,7 +710,10 @@ TEST_F(LoadSplitTest, EverySceneHasOneOwnerWhileHostsAreKilledAndRestartedInTurn
     // The primary's answers written before the kill may still arrive after the checks began.
     if (!owners.empty() && owners.front() == primary) owners.erase(owners.begin());
     EXPECT_EQ(owners, (std::vector<std::string>{standby, primary})) << scene;
-    EXPECT_LT(gap_ms, 1500.0) << scene << ": longest time without an answer";
+    // The 1 s lease, then the next frame and its computation: 0.5 s of slack in Release,
+    // 4x that under a sanitizer (8 daemons on 2 cores under ASan: 1,662 ms seen once).
+    EXPECT_LT(gap_ms, 1000.0 + 500.0 * test::kTimeSlack)
+        << scene << ": longest time without an answer";
   }
   std::printf(
       "load split: %d scenes, %zu answers while 4 hosts were killed and restarted in "
