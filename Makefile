@@ -11,6 +11,9 @@ DEB_PACKAGES += openssl
 # sd_notify (Type=notify unit); `make package` and tests/package: CPack's DEB generator
 # runs dpkg-shlibdeps (dpkg-dev), file and readelf (binutils)
 DEB_PACKAGES += libsystemd-dev dpkg-dev file binutils
+# Network namespaces for the DDS tests (run_isolated.sh) and the several-host tests
+# (virtual_lan.cpp: veth pairs; skipped with the reason where namespaces are not allowed)
+DEB_PACKAGES += iproute2
 # The Python module (client/python, docs/PYTHON.md), its tests and examples/python
 DEB_PACKAGES += pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
