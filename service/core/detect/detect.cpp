@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/common/chunked.hpp"
+#include "core/detect/edge_hits.hpp"
 #include "core/detect/sorted_index_set.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/spatial_order.hpp"
@@ -561,11 +562,6 @@ struct VisitMarks {
 };
 thread_local VisitMarks t_marks;
 
-struct EdgeHit {
-  IntrudingEdge edge;
-  double dl;  ///< tolerance in lambda units
-};
-
 }  // namespace
 
 void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
@@ -580,7 +576,7 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
       features_.size(), kFeatureChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
         VisitMarks& marks = t_marks;
         if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
-        std::vector<EdgeHit> hits;
+        std::vector<detail::EdgeHit> hits;
         std::vector<IntrudingEdge>& part = edge_parts_[c];
         for (std::size_t i = begin; i < end; ++i) {
           const Index edge = features_[i];
@@ -610,18 +606,10 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
             }
           }
           std::sort(hits.begin(), hits.end(),
-                    [](const EdgeHit& u, const EdgeHit& v) { return u.edge.tet < v.edge.tet; });
-          const std::size_t first = part.size();
-          for (const EdgeHit& h : hits) {
-            // An edge lying in a face (or along an edge) shared by several tets of Y is
-            // inside each of them over the same interval: keep the first tet only, so the
-            // response does not count that stretch twice.
-            bool repeated = false;
-            for (std::size_t k = first; k < part.size() && !repeated; ++k)
-              repeated = std::abs(part[k].lambda_in - h.edge.lambda_in) <= h.dl &&
-                         std::abs(part[k].lambda_out - h.edge.lambda_out) <= h.dl;
-            if (!repeated) part.push_back(h.edge);
-          }
+                    [](const detail::EdgeHit& u, const detail::EdgeHit& v) {
+                      return u.edge.tet < v.edge.tet;
+                    });
+          detail::append_edge_hits(hits, part);
         }
       });
   detail::concat_parts(edge_parts_, chunks, out);

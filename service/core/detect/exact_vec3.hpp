@@ -18,4 +18,18 @@ inline Eigen::Vector3d cross3(const Eigen::Vector3d& a, const Eigen::Vector3d& b
           a.x() * b.y() - a.y() * b.x()};
 }
 
+/// A direction perpendicular to a non-zero e: e crossed with the coordinate axis of e's
+/// smallest coordinate (products with 0 and 1 only: exact).
+inline Eigen::Vector3d any_perpendicular(const Eigen::Vector3d& e) {
+  const Eigen::Vector3d a = e.cwiseAbs();
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  if (a.x() <= a.y() && a.x() <= a.z())
+    axis.x() = 1.0;
+  else if (a.y() <= a.z())
+    axis.y() = 1.0;
+  else
+    axis.z() = 1.0;
+  return cross3(e, axis);
+}
+
 }  // namespace tc::detail

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "core/common/chunked.hpp"
 #include "core/detect/broad_phase.hpp"
+#include "core/detect/edge_hits.hpp"
 #include "core/detect/tri_tet_overlap.hpp"
-#include "core/mesh/topology.hpp"
 
 namespace tc {
 namespace {
@@ -69,26 +72,32 @@ void in_region(std::size_t count, const Aabb& region, const BoxOf& box_of,
   }
 }
 
-/// Rows of a CSR from (row, item) pairs given row by row in `count` rows.
-template <typename Fill>
-Csr build_csr(std::size_t rows, std::size_t entries_hint, const Fill& fill) {
-  std::vector<std::pair<Index, Index>> pairs;
-  pairs.reserve(entries_hint);
-  fill(pairs);
-  std::sort(pairs.begin(), pairs.end());
-  Csr csr;
-  csr.offsets.assign(rows + 1, 0);
-  for (const auto& [r, item] : pairs) ++csr.offsets[static_cast<std::size_t>(r) + 1];
-  for (std::size_t r = 0; r < rows; ++r) csr.offsets[r + 1] += csr.offsets[r];
-  csr.indices.reserve(pairs.size());
-  for (const auto& pair : pairs) csr.indices.push_back(pair.second);
-  return csr;
-}
-
-struct EdgeHit {
-  IntrudingEdge edge;
-  double dl;  ///< tolerance in lambda units
+/// (key, item) pairs grouped by key: keys ascending, each key's items ascending. Sized
+/// by the pairs (the contact), not by the object, so a frame allocates nothing per node.
+struct Groups {
+  std::vector<Index> keys;
+  std::vector<std::size_t> begin;  ///< keys.size() + 1 offsets into items
+  std::vector<Index> items;
+  [[nodiscard]] std::span<const Index> items_of(std::size_t g) const {
+    return {items.data() + begin[g], begin[g + 1] - begin[g]};
+  }
 };
+
+Groups group_pairs(std::vector<std::pair<Index, Index>>& pairs) {
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  Groups g;
+  g.items.reserve(pairs.size());
+  for (const auto& [key, item] : pairs) {
+    if (g.keys.empty() || g.keys.back() != key) {
+      g.keys.push_back(key);
+      g.begin.push_back(g.items.size());
+    }
+    g.items.push_back(item);
+  }
+  g.begin.push_back(g.items.size());
+  return g;
+}
 
 }  // namespace
 
@@ -155,7 +164,6 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
   st.candidates = candidates.size();
 
   // ---- narrow phase: the geometry of each tet in a candidate once, then the exact test.
-  std::vector<Index> slot(tets.size(), -1);
   std::vector<Index> cand_tets;
   for (const TetPair& p : candidates) cand_tets.push_back(p.tet_b);
   std::sort(cand_tets.begin(), cand_tets.end());
@@ -167,10 +175,10 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
           make_tet_geometry(
               tet_corners(tet_positions, tets[static_cast<std::size_t>(cand_tets[i])]), geom[i]);
       });
-  for (std::size_t i = 0; i < cand_tets.size(); ++i)
-    slot[static_cast<std::size_t>(cand_tets[i])] = static_cast<Index>(i);
+  // Found by binary search in the sorted candidate tets: no per-frame array over all tets.
   const auto geometry_of = [&](Index tet) -> const TetGeometry& {
-    return geom[static_cast<std::size_t>(slot[static_cast<std::size_t>(tet)])];
+    const auto it = std::lower_bound(cand_tets.begin(), cand_tets.end(), tet);
+    return geom[static_cast<std::size_t>(it - cand_tets.begin())];
   };
   {
     const std::size_t chunks = detail::num_chunks(candidates.size(), kChunk);
@@ -192,39 +200,37 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
   st.overlapping = out.overlapping.size();
   if (out.overlapping.empty()) return out;
 
-  // ---- marked elements; rows: the tets each marked triangle overlaps (sorted).
-  std::vector<Index> row_begin(triangles.size() + 1, -1);
+  // ---- marked elements; rows: the tets each marked triangle overlaps (sorted), the
+  //      overlapping pairs from row_begin[r] to row_begin[r + 1] for marked triangle r.
+  std::vector<std::size_t> row_begin;
   for (std::size_t i = 0; i < out.overlapping.size(); ++i) {
     const Index t = out.overlapping[i].triangle;
     if (out.marked_triangles.empty() || out.marked_triangles.back() != t) {
       out.marked_triangles.push_back(t);
-      row_begin[static_cast<std::size_t>(t)] = static_cast<Index>(i);
+      row_begin.push_back(i);
     }
     out.marked_tets.push_back(out.overlapping[i].tet);
   }
+  row_begin.push_back(out.overlapping.size());
   std::sort(out.marked_tets.begin(), out.marked_tets.end());
   out.marked_tets.erase(std::unique(out.marked_tets.begin(), out.marked_tets.end()),
                         out.marked_tets.end());
+  // `triangle` is a marked one (the tables below list only those).
   const auto row = [&](Index triangle) -> std::span<const TriTetPair> {
-    const Index b = row_begin[static_cast<std::size_t>(triangle)];
-    if (b < 0) return {};
-    auto e = static_cast<std::size_t>(b);
-    while (e < out.overlapping.size() && out.overlapping[e].triangle == triangle) ++e;
-    return {out.overlapping.data() + b, e - static_cast<std::size_t>(b)};
+    const auto r = static_cast<std::size_t>(
+        std::lower_bound(out.marked_triangles.begin(), out.marked_triangles.end(), triangle) -
+        out.marked_triangles.begin());
+    return {out.overlapping.data() + row_begin[r], row_begin[r + 1] - row_begin[r]};
   };
 
   // ---- surface nodes inside tets.
   if (options.intruding_nodes) {
-    const Csr node_tris = build_csr(static_cast<std::size_t>(surface_positions.cols()),
-                                    3 * out.marked_triangles.size(),
-                                    [&](std::vector<std::pair<Index, Index>>& pairs) {
-                                      for (const Index t : out.marked_triangles)
-                                        for (const Index v : triangles[static_cast<std::size_t>(t)])
-                                          pairs.push_back({v, t});
-                                    });
-    std::vector<Index> nodes;
-    for (Index v = 0; v < node_tris.rows(); ++v)
-      if (!node_tris.row(v).empty()) nodes.push_back(v);
+    std::vector<std::pair<Index, Index>> pairs;  // (node, marked triangle)
+    pairs.reserve(3 * out.marked_triangles.size());
+    for (const Index t : out.marked_triangles)
+      for (const Index v : triangles[static_cast<std::size_t>(t)]) pairs.emplace_back(v, t);
+    const Groups node_tris = group_pairs(pairs);
+    const std::vector<Index>& nodes = node_tris.keys;
     const std::size_t chunks = detail::num_chunks(nodes.size(), kChunk);
     std::vector<std::vector<IntrudingNode>> parts(chunks);
     detail::for_chunks(nodes.size(), kChunk,
@@ -238,7 +244,7 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
                            // found so far.
                            Index best = std::numeric_limits<Index>::max();
                            Eigen::Vector4d bary = Eigen::Vector4d::Zero();
-                           for (const Index t : node_tris.row(node))
+                           for (const Index t : node_tris.items_of(i))
                              for (const TriTetPair& pair : row(t)) {
                                if (pair.tet >= best) break;
                                const TetGeometry& g = geometry_of(pair.tet);
@@ -263,22 +269,19 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
 
   // ---- surface edges clipped by tets.
   if (options.intruding_edges) {
-    const Csr edge_tris =
-        build_csr(edges.edges.size(), 3 * out.marked_triangles.size(),
-                  [&](std::vector<std::pair<Index, Index>>& pairs) {
-                    for (const Index t : out.marked_triangles)
-                      for (const Index e : edges.triangle_edges[static_cast<std::size_t>(t)])
-                        pairs.push_back({e, t});
-                  });
-    std::vector<Index> feature_edges;
-    for (Index e = 0; e < edge_tris.rows(); ++e)
-      if (!edge_tris.row(e).empty()) feature_edges.push_back(e);
+    std::vector<std::pair<Index, Index>> pairs;  // (edge, marked triangle)
+    pairs.reserve(3 * out.marked_triangles.size());
+    for (const Index t : out.marked_triangles)
+      for (const Index e : edges.triangle_edges[static_cast<std::size_t>(t)])
+        pairs.emplace_back(e, t);
+    const Groups edge_tris = group_pairs(pairs);
+    const std::vector<Index>& feature_edges = edge_tris.keys;
     const std::size_t chunks = detail::num_chunks(feature_edges.size(), kChunk);
     std::vector<std::vector<IntrudingEdge>> parts(chunks);
     detail::for_chunks(
         feature_edges.size(), kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
           std::vector<Index> near;
-          std::vector<EdgeHit> hits;
+          std::vector<detail::EdgeHit> hits;
           std::vector<IntrudingEdge>& part = parts[c];
           for (std::size_t i = begin; i < end; ++i) {
             const Index edge = feature_edges[i];
@@ -289,7 +292,7 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
             const Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
             // Every tet overlapped by a marked triangle around the edge, once.
             near.clear();
-            for (const Index t : edge_tris.row(edge))
+            for (const Index t : edge_tris.items_of(i))
               for (const TriTetPair& pair : row(t)) near.push_back(pair.tet);
             std::sort(near.begin(), near.end());
             near.erase(std::unique(near.begin(), near.end()), near.end());
@@ -304,16 +307,7 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
               if (clip.hit)
                 hits.push_back({{edge, tet, clip.lambda_in, clip.lambda_out}, tol / length});
             }
-            const std::size_t first = part.size();
-            for (const EdgeHit& h : hits) {
-              // An edge in a face (or along an edge) shared by several tets is inside each over
-              // the same interval: the first tet only, as for tet-tet pairs.
-              bool repeated = false;
-              for (std::size_t k = first; k < part.size() && !repeated; ++k)
-                repeated = std::abs(part[k].lambda_in - h.edge.lambda_in) <= h.dl &&
-                           std::abs(part[k].lambda_out - h.edge.lambda_out) <= h.dl;
-              if (!repeated) part.push_back(h.edge);
-            }
+            detail::append_edge_hits(hits, part);
           }
         });
     for (const auto& part : parts)

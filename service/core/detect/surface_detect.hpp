@@ -60,8 +60,10 @@ struct SurfaceDetectStats {
 /// extent, as for tet pairs), options.intruding_nodes and options.intruding_edges.
 /// Triangles or tets with a non-finite corner take part in nothing.
 ///
-/// One-off: the per-topology tables (node -> triangles, edge -> triangles) are built in
-/// each call, O(k); the pipeline will keep them per topology version.
+/// Cost: one box test per triangle and per tet (the cull to the two objects' overlap
+/// box), then work and memory that follow the contact: the tables it reads (node ->
+/// marked triangles, edge -> marked triangles, the geometry of the candidate tets) are
+/// built from the contact alone, never as arrays over all nodes, edges or tets.
 /// @throws std::invalid_argument when `edges` was not built from `triangles`
 SurfaceContacts detect_surface_tets(const Positions& surface_positions,
                                     std::span<const Triangle> triangles, const SurfaceEdges& edges,

@@ -44,21 +44,9 @@ inline bool arcs_disjoint(double s1, double s2, double s3, double s4) {
          (s1 * s4 < 0.0 && clear(s1, s4));
 }
 
+using detail::any_perpendicular;
 using detail::cross3;
 using detail::dot3;
-
-/// Any direction perpendicular to a non-zero e.
-Vector3d any_perpendicular(const Vector3d& e) {
-  const Vector3d a = e.cwiseAbs();
-  Vector3d axis = Vector3d::Zero();
-  if (a.x() <= a.y() && a.x() <= a.z())
-    axis.x() = 1.0;
-  else if (a.y() <= a.z())
-    axis.y() = 1.0;
-  else
-    axis.z() = 1.0;
-  return e.cross(axis);
-}
 
 inline void project(const Vector3d (&v)[4], const Vector3d& n, double& lo, double& hi) {
   const double p0 = dot3(n, v[0]), p1 = dot3(n, v[1]), p2 = dot3(n, v[2]), p3 = dot3(n, v[3]);

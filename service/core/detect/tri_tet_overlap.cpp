@@ -17,21 +17,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// |n| <= kFlat L^2: the triangle is degenerate up to rounding (as tets: 6|V| <= kFlat L^3).
 constexpr double kFlat = 32.0 * kEps;
 
+using detail::any_perpendicular;
 using detail::cross3;
 using detail::dot3;
-
-/// A direction perpendicular to a non-zero e (e crossed with its smallest coordinate axis).
-Vector3d any_perpendicular(const Vector3d& e) {
-  const Vector3d a = e.cwiseAbs();
-  Vector3d axis = Vector3d::Zero();
-  if (a.x() <= a.y() && a.x() <= a.z())
-    axis.x() = 1.0;
-  else if (a.y() <= a.z())
-    axis.y() = 1.0;
-  else
-    axis.z() = 1.0;
-  return cross3(e, axis);
-}
 
 /// The separating-axis walk of a triangle against a tet, in coordinates relative to the
 /// tet's first corner. kEarly: answers "overlap by more than tol?", stopping at the first
