@@ -25,6 +25,9 @@ using Clock = std::chrono::steady_clock;
 constexpr std::size_t kKeptFrames = 256;   // answered frames remembered
 constexpr std::size_t kKeptEvents = 4096;  // status events kept until taken
 constexpr std::uint32_t kTakeBatch = 64;
+/// An object the service reports lost is written again at most this often: once per
+/// liveliness lease (docs/PROTOCOL.md, "Liveliness lease").
+constexpr auto kRewriteInterval = std::chrono::milliseconds(1000);
 
 [[noreturn]] void throw_dds(const std::string& call, dds_return_t rc) {
   throw ClientError("tetcollide client: " + call + ": " + protocol::dds_error(rc));
@@ -94,6 +97,9 @@ struct Client::Impl {
   /// Source timestamp of this client's last write of each (object, version).
   std::map<std::pair<std::string, std::uint32_t>, std::int64_t> written;
   std::map<std::string, StatusEvent::State> services;  // alive services
+  /// Own objects a service reported it does not hold (an unknown_object answer, a
+  /// KIND_REMOVED event) although this client never removed them: written again by pump().
+  std::set<std::string> lost;
   std::vector<StatusEvent> events;
   std::vector<FrameStatsEvent> stats;
 
@@ -106,6 +112,19 @@ struct Client::Impl {
   };
   std::int64_t kept_frame = -1;
   std::vector<Kept> kept;
+
+  /// The last topology written of each own object, for writing it again when a service
+  /// lost it: a service that missed the client's liveliness for longer than the lease (it
+  /// was stopped, the network was cut) drops the object, and DDS does not deliver the
+  /// transient-local sample again to a reader that already had it.
+  struct Topology {
+    Mesh mesh;
+    ObjectParams params;
+    std::uint32_t version = 0;
+    Clock::time_point written{};
+  };
+  std::mutex topology_mutex;  // serialises topology writes; guards `topologies`
+  std::map<std::string, Topology> topologies;
 
   std::function<void(const FrameForces&)> callback;
   std::thread callback_thread;
@@ -191,7 +210,57 @@ struct Client::Impl {
     take_status();
     take_stats();
     changed.notify_all();
+    rewrite_lost();
     return completed;
+  }
+
+  /// Writes the topology of each lost object again (its current version, unchanged), at
+  /// most once per kRewriteInterval per object. A service that still holds it answers
+  /// "received again, unchanged"; one that lost it builds it again.
+  void rewrite_lost() {
+    std::set<std::string> objects;
+    {
+      std::lock_guard lock(mutex);
+      objects.swap(lost);
+    }
+    for (const auto& object : objects) {
+      std::lock_guard write_lock(topology_mutex);
+      const auto it = topologies.find(object);
+      if (it == topologies.end()) continue;  // removed meanwhile
+      Topology& t = it->second;
+      const auto now = Clock::now();
+      if (now - t.written < kRewriteInterval) continue;
+      t.written = now;
+      write_topology(object, t);
+    }
+  }
+
+  /// Writes `t` as the object's topology sample (topology_mutex held).
+  void write_topology(const std::string& object, const Topology& t) {
+    tetcollide_MeshTopology s{};
+    copy_name(s.scene, options.scene, "scene");
+    copy_name(s.object, object, "object");
+    s.version = t.version;
+    borrow_const(s.node_ids, t.mesh.node_ids.data(), t.mesh.node_ids.size());
+    borrow_const(s.rest_positions, t.mesh.rest_positions.data(), t.mesh.rest_positions.size());
+    borrow_const(s.tets, t.mesh.tets.data(), t.mesh.tets.size());
+    borrow_const(s.triangles, t.mesh.triangles.data(), t.mesh.triangles.size());
+    s.params.stiffness = t.params.stiffness;
+    s.params.damping = t.params.damping;
+    s.params.max_force = t.params.max_force;
+    s.params.is_static = t.params.is_static;
+    s.params.depth = static_cast<tetcollide_DepthMethod>(t.params.depth);
+    s.params.response = static_cast<tetcollide_ResponseKind>(t.params.response);
+    // The write's timestamp comes back in the service's verdict: a verdict on an earlier
+    // write of the same version (kept in the status history) is not mistaken for this one.
+    const dds_time_t stamp = dds_time();
+    {
+      // Known before the write so answers for it are kept as soon as they can arrive.
+      std::lock_guard lock(mutex);
+      versions[object] = t.version;
+      written[{object, t.version}] = stamp;
+    }
+    check_rc(dds_write_ts(topology_writer, &s, stamp), "dds_write(MeshTopology " + object + ")");
   }
 
   void take_forces(std::vector<FrameForces>& completed) {
@@ -211,6 +280,8 @@ struct Client::Impl {
           if (protocol::bounded_view(s->scene) != options.scene) continue;
           std::string object(protocol::bounded_view(s->object));
           if (versions.count(object) == 0) continue;  // another client's object
+          if (s->status == static_cast<std::int32_t>(StatusCode::kUnknownObject))
+            lost.insert(object);
           ObjectForces f;
           f.object = object;
           f.frame = s->frame;
@@ -284,6 +355,9 @@ struct Client::Impl {
           e.message = protocol::bounded_view(s->message);
           e.topology_timestamp = s->topology_timestamp;
           if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
+          if (e.kind == StatusEvent::Kind::kRemoved && e.scene == options.scene &&
+              versions.count(e.object) != 0)
+            lost.insert(e.object);
           if (e.scene == options.scene && e.topology_version != 0 && e.frame < 0 &&
               (e.kind == StatusEvent::Kind::kRegistered || e.kind == StatusEvent::Kind::kError)) {
             Registration& r = registrations[{e.object, e.topology_version, e.topology_timestamp}];
@@ -502,38 +576,25 @@ bool Client::wait_for_readers(std::size_t count, std::chrono::milliseconds timeo
 std::uint32_t Client::register_object(const std::string& object, const Mesh& mesh,
                                       const ObjectParams& params, std::uint32_t version) {
   Impl& m = *impl_;
+  std::lock_guard write_lock(m.topology_mutex);
   std::uint32_t v = version;
-  {
+  if (v == 0) {
     std::lock_guard lock(m.mutex);
-    if (v == 0) {
-      const auto it = m.versions.find(object);
-      v = it == m.versions.end() ? 1 : it->second + 1;
-    }
+    const auto it = m.versions.find(object);
+    v = it == m.versions.end() ? 1 : it->second + 1;
   }
-  tetcollide_MeshTopology s{};
-  copy_name(s.scene, m.options.scene, "scene");
-  copy_name(s.object, object, "object");
-  s.version = v;
-  borrow_const(s.node_ids, mesh.node_ids.data(), mesh.node_ids.size());
-  borrow_const(s.rest_positions, mesh.rest_positions.data(), mesh.rest_positions.size());
-  borrow_const(s.tets, mesh.tets.data(), mesh.tets.size());
-  borrow_const(s.triangles, mesh.triangles.data(), mesh.triangles.size());
-  s.params.stiffness = params.stiffness;
-  s.params.damping = params.damping;
-  s.params.max_force = params.max_force;
-  s.params.is_static = params.is_static;
-  s.params.depth = static_cast<tetcollide_DepthMethod>(params.depth);
-  s.params.response = static_cast<tetcollide_ResponseKind>(params.response);
-  // The write's timestamp comes back in the service's verdict: a verdict on an earlier
-  // write of the same version (kept in the status history) is not mistaken for this one.
-  const dds_time_t stamp = dds_time();
   {
-    // Known before the write so answers for it are kept as soon as they can arrive.
-    std::lock_guard lock(m.mutex);
-    m.versions[object] = v;
-    m.written[{object, v}] = stamp;
+    // Names are checked before anything is kept.
+    tetcollide_MeshTopology probe{};
+    copy_name(probe.scene, m.options.scene, "scene");
+    copy_name(probe.object, object, "object");
   }
-  check_rc(dds_write_ts(m.topology_writer, &s, stamp), "dds_write(MeshTopology " + object + ")");
+  Impl::Topology& t = m.topologies[object];
+  t.mesh = mesh;
+  t.params = params;
+  t.version = v;
+  t.written = Clock::now();
+  m.write_topology(object, t);
   return v;
 }
 
@@ -565,11 +626,14 @@ void Client::remove_object(const std::string& object) {
   tetcollide_MeshTopology s{};
   copy_name(s.scene, m.options.scene, "scene");
   copy_name(s.object, object, "object");
+  std::lock_guard write_lock(m.topology_mutex);
   check_rc(dds_dispose(m.topology_writer, &s), "dds_dispose(MeshTopology " + object + ")");
   check_rc(dds_unregister_instance(m.topology_writer, &s),
            "dds_unregister_instance(MeshTopology " + object + ")");
+  m.topologies.erase(object);
   std::lock_guard lock(m.mutex);
   m.versions.erase(object);
+  m.lost.erase(object);
 }
 
 std::uint32_t Client::version(const std::string& object) const {

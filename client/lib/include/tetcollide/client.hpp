@@ -205,7 +205,11 @@ class TC_CLIENT_API Client {
   /// Publishes (or, after a cut, replaces) an object's topology. `version` 0 means the
   /// previous version + 1 (1 the first time). Returns the version sent. The sample stays
   /// available to services that start later (transient-local), so a restarted service
-  /// gets it back without the simulator doing anything.
+  /// gets it back without the simulator doing anything. The client keeps a copy of the
+  /// mesh: when a service reports the object lost while this client still holds it (an
+  /// unknown_object answer or a KIND_REMOVED event, e.g. after the service was stopped
+  /// for longer than the 1 s lease), the client writes it again, unchanged, at most once
+  /// per second, while it reads DDS (docs/PROTOCOL.md, "Liveliness lease").
   std::uint32_t register_object(const std::string& object, const Mesh& mesh,
                                 const ObjectParams& params, std::uint32_t version = 0);
 
