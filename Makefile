@@ -37,7 +37,7 @@ help:
 	@echo "make fuzz-short  the same, FUZZ_SHORT_SECONDS=$(FUZZ_SHORT_SECONDS) s each (CI)"
 	@echo "make demo        the main job (daemon with contact stiffness blocks)"
 	@echo "make package     Debian packages in $(BUILD_DIR)/packages/ (docs/DEPLOYMENT.md)"
-	@echo "make example-python  a NumPy simulator drops a ball on the box (docs/PYTHON.md)"
+	@echo "make example-python  NumPy simulators: a ball dropped on the box, an STL tool dragged across an organ"
 	@echo "make format      clang-format every source file"
 	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
 	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"
@@ -102,14 +102,17 @@ package: deps $(BUILD_DIR)/build.ninja
 	cd $(BUILD_DIR) && cpack -G DEB -B $(abspath $(BUILD_DIR))/packages
 	@ls -1 $(BUILD_DIR)/packages/*.deb
 
-# examples/python/drop_ball.py (docs/PYTHON.md) with the interpreter the module is built
-# for (Debian's /usr/bin/python3, which may not be the python3 first on PATH); it starts
-# and stops its own daemon. Outputs in out/python_drop_ball/.
+# examples/python/drop_ball.py and tool_drag.py (docs/PYTHON.md, docs/SURFACES.md) with
+# the interpreter the module is built for (Debian's /usr/bin/python3, which may not be the
+# python3 first on PATH); each starts and stops its own daemon. Outputs in
+# out/python_drop_ball/ and out/python_tool_drag/.
 example-python: deps $(BUILD_DIR)/build.ninja
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target tetcollided tetcollide_python
 	py=$$(sed -n 's/^TC_PYTHON_EXECUTABLE:INTERNAL=//p' $(BUILD_DIR)/CMakeCache.txt); \
-	PYTHONPATH=$(BUILD_DIR)/python $${py:-python3} examples/python/drop_ball.py \
-	  --daemon $(BUILD_DIR)/bin/tetcollided
+	for example in drop_ball tool_drag; do \
+	  PYTHONPATH=$(BUILD_DIR)/python $${py:-python3} examples/python/$$example.py \
+	    --daemon $(BUILD_DIR)/bin/tetcollided || exit 1; \
+	done
 
 bench: build
 	./scripts/bench.sh

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "core/io/mesh_io.hpp"
+#include "core/io/surface_io.hpp"
 #include "tetcollide/client.hpp"
 
 namespace py = pybind11;
@@ -481,20 +482,22 @@ class PyClient {
   std::map<std::string, Registered> objects_;  // objects registered by this client
 };
 
+/// Raises OSError (kIo) or ValueError for a reader's error.
+[[noreturn]] void raise_read_error(const tc::Error& e) {
+  if (e.code == tc::ErrorCode::kIo) {
+    PyErr_SetObject(PyExc_OSError, py::str(e.message).ptr());
+    throw py::error_already_set();
+  }
+  raise_value(e.message);
+}
+
 py::tuple read_mesh(const py::object& path_obj) {
   const auto path = py::module_::import("os").attr("fspath")(path_obj).cast<std::string>();
   tc::Expected<tc::TetMesh> mesh = [&] {
     py::gil_scoped_release release;
     return tc::read_mesh(path);
   }();
-  if (!mesh) {
-    const auto& e = mesh.error();
-    if (e.code == tc::ErrorCode::kIo) {
-      PyErr_SetObject(PyExc_OSError, py::str(e.message).ptr());
-      throw py::error_already_set();
-    }
-    raise_value(e.message);
-  }
+  if (!mesh) raise_read_error(mesh.error());
   tc::TetMesh& m = *mesh;
   const auto n = static_cast<py::ssize_t>(m.positions.cols());
   const auto k = static_cast<py::ssize_t>(m.tets.size());
@@ -507,6 +510,26 @@ py::tuple read_mesh(const py::object& path_obj) {
   const std::int32_t* t = tet_list->empty() ? nullptr : tet_list->front().data();
   py::array tets = adopt(std::move(tet_list), t, {k, 4});
   return py::make_tuple(nodes, tets);
+}
+
+py::tuple read_surface(const py::object& path_obj) {
+  const auto path = py::module_::import("os").attr("fspath")(path_obj).cast<std::string>();
+  tc::Expected<tc::SurfaceMesh> mesh = [&] {
+    py::gil_scoped_release release;
+    return tc::read_surface(path);
+  }();
+  if (!mesh) raise_read_error(mesh.error());
+  tc::SurfaceMesh& m = *mesh;
+  const auto n = static_cast<py::ssize_t>(m.positions.cols());
+  const auto k = static_cast<py::ssize_t>(m.triangles.size());
+  auto positions = std::make_unique<tc::Positions>(std::move(m.positions));
+  const double* p = positions->data();
+  py::array nodes = adopt(std::move(positions), p, {n, 3});
+  static_assert(sizeof(tc::Triangle) == 3 * sizeof(std::int32_t));
+  auto list = std::make_unique<std::vector<tc::Triangle>>(std::move(m.triangles));
+  const std::int32_t* t = list->empty() ? nullptr : list->front().data();
+  py::array triangles = adopt(std::move(list), t, {k, 3});
+  return py::make_tuple(nodes, triangles);
 }
 
 }  // namespace
@@ -557,6 +580,15 @@ PYBIND11_MODULE(tetcollide, m) {
 Returns (nodes, tets): nodes float64 (n, 3) in metres, tets int32 (m, 4) 0-based node
 indices; both arrays own the reader's buffers (no copy). Raises OSError when the file
 cannot be read and ValueError naming the file and line (or byte) when it is malformed.)");
+
+  m.def("read_surface", &read_surface, py::arg("path"),
+        R"(Reads a triangle surface: STL (ASCII or binary), Wavefront OBJ, or a Gmsh .msh
+with triangles and no tets (docs/SURFACES.md, "Files").
+
+Returns (nodes, triangles): nodes float64 (n, 3) in metres (the file's numbers), triangles
+int32 (k, 3) 0-based node indices, for Client.register_surface. Raises OSError when the
+file cannot be read and ValueError naming the file and line (or byte) when it is
+malformed.)");
 
   py::class_<tc::client::Registration>(
       m, "Registration", "The service's verdict on a topology (Client.wait_registered).")

@@ -2,7 +2,7 @@
 """Drops a soft ball on the box through tetcollided: a small NumPy simulator.
 
 The ball (data/meshes/ball.msh, radius 0.2 m) is a mass-spring network on the edges of
-its tets, integrated explicitly in substeps; the box (data/meshes/box.msh, top face at
+its tets (mass_spring.py), integrated explicitly in substeps; the box (data/meshes/box.msh, top face at
 z = 0.15 m) is static. Every frame the simulator publishes the ball's positions and
 velocities, waits for that frame's contact forces and 3x3 stiffness blocks, and applies
 them linearly implicitly per node:
@@ -20,99 +20,17 @@ tetcollide. Exit code 0 when the ball came to rest on the box, 1 otherwise.
 """
 import argparse
 import csv
-import os
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 import tetcollide
+from example_daemon import ROOT, add_daemon_arguments, run_with_daemon
+from mass_spring import MassSpring
 
-ROOT = Path(__file__).resolve().parents[2]
 BOX_TOP = 0.15  # m, the top face of data/meshes/box.msh
-
-DAEMON_CONFIG = """version: 1
-dds:
-  status_period_s: 0.5
-pipeline:
-  compute_stiffness: true   # the 3x3 blocks this simulator integrates with
-log:
-  level: warn
-  timing_summary_period_s: 0
-"""
-
-
-class Ball:
-    """A mass-spring ball: lumped tet masses, one damped spring per tet edge."""
-
-    def __init__(self, nodes, tets, density=1000.0, spring=2.0e4, spring_damping=5.0, bulk=2.0e5):
-        self.x = nodes.copy()
-        self.v = np.zeros_like(nodes)
-        self.tets = tets
-        self.volume = self.volumes_and_gradients()[0]
-        self.mass = np.bincount(tets.ravel(), np.repeat(density * self.volume / 4.0, 4), len(nodes))
-        self.bulk = bulk
-        pairs = tets[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
-        self.edges = np.unique(np.sort(pairs, axis=1), axis=0)
-        self.rest = np.linalg.norm(nodes[self.edges[:, 1]] - nodes[self.edges[:, 0]], axis=1)
-        self.spring = spring
-        self.spring_damping = spring_damping
-
-    def volumes_and_gradients(self):
-        """Signed tet volumes (m,) and their gradients by node (m, 4, 3)."""
-        a, b, c, d = (self.x[self.tets[:, i]] for i in range(4))
-        gb = np.cross(c - a, d - a) / 6.0
-        gc = np.cross(d - a, b - a) / 6.0
-        gd = np.cross(b - a, c - a) / 6.0
-        volume = np.einsum("ij,ij->i", gd, d - a)
-        return volume, np.stack([-(gb + gc + gd), gb, gc, gd], axis=1)
-
-    def internal_forces(self):
-        i, j = self.edges[:, 0], self.edges[:, 1]
-        d = self.x[j] - self.x[i]
-        length = np.linalg.norm(d, axis=1)
-        u = d / length[:, None]
-        rate = np.einsum("ij,ij->i", self.v[j] - self.v[i], u)
-        f = (self.spring * (length - self.rest) + self.spring_damping * rate)[:, None] * u
-        n = len(self.x)
-        total = np.stack([np.bincount(i, f[:, k], n) - np.bincount(j, f[:, k], n) for k in range(3)],
-                         axis=1)
-        # Volume springs, E = bulk / 2 (V - V0)^2 / V0 per tet: they keep tets from inverting
-        # where edge springs alone would let a tet flatten through itself.
-        volume, gradient = self.volumes_and_gradients()
-        fv = -(self.bulk * (volume - self.volume) / self.volume)[:, None, None] * gradient
-        nodes = self.tets.ravel()
-        fv = fv.reshape(-1, 3)
-        return total + np.stack([np.bincount(nodes, fv[:, k], n) for k in range(3)], axis=1)
-
-    def apply_contact(self, nodes, forces, stiffness, h):
-        """Linearly implicit contact impulse on the nodes in contact (k,), (k, 3), (k, 3, 3)."""
-        if len(nodes) == 0:
-            return
-        m = self.mass[nodes][:, None, None] * np.eye(3)
-        lhs = m - h * h * stiffness
-        rhs = h * forces + h * h * np.einsum("kij,kj->ki", stiffness, self.v[nodes])
-        self.v[nodes] += np.linalg.solve(lhs, rhs[:, :, None])[:, :, 0]
-
-    def step(self, h, substeps, gravity=9.81):
-        dt = h / substeps
-        for _ in range(substeps):
-            a = self.internal_forces() / self.mass[:, None]
-            a[:, 2] -= gravity
-            self.v += dt * a
-            self.x += dt * self.v
-
-
-def start_daemon(daemon, domain, directory):
-    config = Path(directory) / "tetcollided.yaml"
-    config.write_text(DAEMON_CONFIG)
-    log = open(Path(directory) / "tetcollided.log", "wb")
-    proc = subprocess.Popen([daemon, "--config", str(config), "--domain", str(domain)],
-                            stdout=log, stderr=log)
-    return proc
 
 
 def plot(rows, path):
@@ -140,7 +58,7 @@ def run(args):
     ball_nodes, ball_tets = tetcollide.read_mesh(ROOT / "data" / "meshes" / "ball.msh")
     box_nodes, box_tets = tetcollide.read_mesh(ROOT / "data" / "meshes" / "box.msh")
     ball_nodes = ball_nodes + np.array([0.0, 0.0, args.height + BOX_TOP - ball_nodes[:, 2].min()])
-    ball = Ball(ball_nodes, ball_tets)
+    ball = MassSpring(ball_nodes, ball_tets)
     weight = ball.mass.sum() * 9.81
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -200,10 +118,7 @@ def run(args):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--daemon", default=str(ROOT / "build" / "bin" / "tetcollided"),
-                   help="tetcollided to start (default: the build tree's)")
-    p.add_argument("--connect", action="store_true", help="use a daemon already running on --domain")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: from the pid)")
+    add_daemon_arguments(p)
     p.add_argument("--frames", type=int, default=700, help="frames to simulate (default 700)")
     p.add_argument("--step", type=float, default=0.001, help="seconds per frame (default 0.001)")
     p.add_argument("--substeps", type=int, default=4, help="explicit substeps per frame (default 4)")
@@ -213,19 +128,7 @@ def main():
     p.add_argument("--out", default="out/python_drop_ball", help="output directory")
     p.add_argument("--no-plot", action="store_true", help="write the CSV only")
     args = p.parse_args()
-    if args.domain is None:
-        args.domain = 10 + os.getpid() % 220
-    # Loopback-only DDS unless the caller chose a configuration.
-    os.environ.setdefault("CYCLONEDDS_URI", "file://" + str(ROOT / "config" / "cyclonedds.xml"))
-    if args.connect:
-        return run(args)
-    with tempfile.TemporaryDirectory(prefix="drop_ball-") as d:
-        daemon = start_daemon(args.daemon, args.domain, d)
-        try:
-            return run(args)
-        finally:
-            daemon.terminate()
-            daemon.wait(timeout=20)
+    return run_with_daemon(args, run)
 
 
 if __name__ == "__main__":

@@ -36,3 +36,37 @@ def test_drop_ball_comes_to_rest_on_the_box(workdir):
     assert abs(col["contact_force_z_n"][-200:].mean() / weight - 1.0) < 0.3
     assert abs(v[-1]) < 0.05
     assert 0.12 < col["lowest_z_m"][-1] < 0.15
+
+
+def test_tool_drag_reports_the_forces_on_a_rigid_stl_tool(workdir):
+    """examples/python/tool_drag.py: a surface object (probe.stl) moved by a script into and
+    across a soft organ. Checked here from its CSV, apart from the script's own checks."""
+    out = workdir / "out"
+    run = subprocess.run(
+        [sys.executable, str(SOURCE_DIR / "examples" / "python" / "tool_drag.py"),
+         "--daemon", os.environ["TC_DAEMON"], "--domain", str(private_domain()), "--out", str(out)],
+        capture_output=True, text=True, timeout=150)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert (out / "tool_drag.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with open(out / "tool_forces.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 950
+    col = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    t, z = col["time_s"], col["tool_z_m"]
+    fx, fy, fz = col["force_x_n"], col["force_y_n"], col["force_z_n"]
+    # Nothing before the tip reaches the organ's top (z = 0.15 m), nothing once lifted off.
+    away = z > 0.151
+    assert (fz[away & (t < 0.5)] == 0).all() and (col["contact_vertices"][away & (t < 0.5)] == 0).all()
+    assert fz[-50:].max() == 0
+    # Held 2 cm in on the flat top: pushed straight up (the tip is round and centred).
+    hold = (t >= 0.2) & (t < 0.25)
+    assert (fz[hold] > 100).all()
+    assert (np.hypot(fx[hold], fy[hold]) < 0.05 * fz[hold]).all()
+    # Pressed all along the drag; the organ got the opposite force.
+    drag = (t >= 0.25) & (t < 0.75)
+    assert (fz[drag] > 0).all()
+    assert np.allclose(col["organ_force_z_n"], -fz, rtol=1e-9, atol=1e-9)
+    # The driver did positive work; the organ keeps no more than that.
+    work = col["driver_work_j"][-1]
+    assert work > 0
+    assert col["organ_energy_j"][-1] <= work

@@ -62,3 +62,25 @@ def test_a_malformed_file_is_a_value_error_naming_file_and_line(name, line):
 def test_a_path_of_the_wrong_type_is_a_type_error():
     with pytest.raises(TypeError):
         tetcollide.read_mesh(42)
+
+
+def test_read_surface_reads_the_probe_and_refuses_a_tet_mesh(tmp_path):
+    nodes, triangles = tetcollide.read_surface(MESHES / "probe.stl")
+    # make_probe.py: 674 vertices, a closed surface (2V - 4 triangles), tip at the origin.
+    assert nodes.shape == (674, 3) and nodes.dtype == np.float64
+    assert triangles.shape == (1344, 3) and triangles.dtype == np.int32
+    assert triangles.min() == 0 and triangles.max() == 673
+    np.testing.assert_allclose(nodes.min(axis=0), [-0.03, -0.03, 0.0], atol=1e-12)
+    np.testing.assert_allclose(nodes.max(axis=0), [0.03, 0.03, 0.25], atol=1e-12)
+    # Closed: every edge in exactly two triangles.
+    edges = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all()
+    with pytest.raises(ValueError, match="box.msh.*tet mesh, not a surface"):
+        tetcollide.read_surface(MESHES / "box.msh")
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    with pytest.raises(ValueError, match="bad.obj:3"):
+        tetcollide.read_surface(bad)
+    with pytest.raises(OSError):
+        tetcollide.read_surface(tmp_path / "missing.stl")
