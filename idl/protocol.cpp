@@ -89,10 +89,14 @@ QosPtr topic_qos(Topic topic) {
   return qos;
 }
 
-QosPtr writer_qos(Topic topic, std::int32_t strength) {
+QosPtr writer_qos(Topic topic, std::int32_t strength, dds_duration_t answer_lease) {
   QosPtr qos = topic_qos(topic);
-  if (topic == Topic::kForces || topic == Topic::kStats)
+  if (topic == Topic::kForces || topic == Topic::kStats) {
     dds_qset_ownership_strength(qos.get(), strength);
+    // A writer may offer a shorter lease than the readers request (never a longer one).
+    dds_qset_liveliness(qos.get(), DDS_LIVELINESS_AUTOMATIC,
+                        answer_lease < kLivelinessLease ? answer_lease : kLivelinessLease);
+  }
   return qos;
 }
 

@@ -47,7 +47,11 @@ QosPtr topic_qos(Topic topic);
 
 /// QoS of a service's writer of `topic`: topic_qos plus, for the EXCLUSIVE topics, the
 /// ownership `strength` (the strongest live writer's samples are the ones readers see).
-QosPtr writer_qos(Topic topic, std::int32_t strength);
+/// `answer_lease`: the liveliness lease the EXCLUSIVE writers offer (at most
+/// kLivelinessLease, which readers request): the time a client's reader waits before it
+/// takes the next strongest service's answers once the owner stopped (dds.answer_lease_ms).
+QosPtr writer_qos(Topic topic, std::int32_t strength,
+                  dds_duration_t answer_lease = kLivelinessLease);
 
 /// Publisher/subscriber QoS selecting a DDS partition; null when `partition` is empty
 /// (the default partition).

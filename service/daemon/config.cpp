@@ -158,9 +158,13 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
           [&](const YAML::Node& v, const std::string& kk) {
             c.status_period_s = p.real(v, kk, 0.01, 3600.0);
           }},
-         {"ownership_strength", [&](const YAML::Node& v, const std::string& kk) {
+         {"ownership_strength",
+          [&](const YAML::Node& v, const std::string& kk) {
             c.ownership_strength = static_cast<std::int32_t>(
                 p.integer(v, kk, 0, std::numeric_limits<std::int32_t>::max()));
+          }},
+         {"answer_lease_ms", [&](const YAML::Node& v, const std::string& kk) {
+            c.answer_lease_ms = p.real(v, kk, 10.0, 1000.0);
           }}});
   };
   const auto frames = [&](const YAML::Node& n, const std::string& k) {

@@ -32,6 +32,10 @@ struct DaemonConfig {
   /// Ownership strength of the answer writers (ContactForces, FrameStats: EXCLUSIVE):
   /// clients see the answers of the strongest live daemon serving a scene. 0..2^31-1.
   std::int32_t ownership_strength = 0;
+  /// Liveliness lease of those answer writers, ms (10..1000): how long after this daemon
+  /// stopped a client's reader takes a standby's answers. Shorter than the protocol's 1 s
+  /// lease of every other writer, which a client's readers request.
+  double answer_lease_ms = 1000.0;
 
   // threads:
   int threads = 0;  ///< worker threads running scene pipelines; 0 = one per core

@@ -56,14 +56,14 @@ static_assert(sizeof(WireObjectName) == sizeof(WireObjectName::Text) &&
               "a vector of WireObjectName must be laid out as the wire's array of names");
 
 Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol::Topic topic,
-                     std::int32_t strength, dds_entity_t& out) {
+                     std::int32_t strength, dds_duration_t answer_lease, dds_entity_t& out) {
   const auto qos = protocol::topic_qos(topic);
   const dds_entity_t t = dds_create_topic(participant, protocol::topic_descriptor(topic),
                                           protocol::topic_name(topic), qos.get(), nullptr);
   if (t < 0)
     return Error{ErrorCode::kIo, std::string("dds_create_topic(") + protocol::topic_name(topic) +
                                      "): " + protocol::dds_error(t)};
-  const auto wqos = protocol::writer_qos(topic, strength);
+  const auto wqos = protocol::writer_qos(topic, strength, answer_lease);
   out = dds_create_writer(publisher, t, wqos.get(), nullptr);
   if (out < 0)
     return Error{ErrorCode::kIo, std::string("dds_create_writer(") + protocol::topic_name(topic) +
@@ -73,10 +73,12 @@ Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol:
 
 }  // namespace
 
-DdsOutbox::DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength)
+DdsOutbox::DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength,
+                     double answer_lease_ms)
     : service_id_(std::move(service_id)),
       partition_(std::move(partition)),
-      ownership_strength_(ownership_strength) {}
+      ownership_strength_(ownership_strength),
+      answer_lease_(static_cast<dds_duration_t>(answer_lease_ms * 1e6)) {}
 
 Status DdsOutbox::create(dds_entity_t participant) {
   const auto pqos = protocol::partition_qos(partition_);
@@ -84,15 +86,15 @@ Status DdsOutbox::create(dds_entity_t participant) {
   if (publisher < 0)
     return Error{ErrorCode::kIo, "dds_create_publisher: " + protocol::dds_error(publisher)};
   if (Status st = create_writer(publisher, participant, protocol::Topic::kForces,
-                                ownership_strength_, forces_writer_);
+                                ownership_strength_, answer_lease_, forces_writer_);
       !st)
     return st;
   if (Status st = create_writer(publisher, participant, protocol::Topic::kStats,
-                                ownership_strength_, stats_writer_);
+                                ownership_strength_, answer_lease_, stats_writer_);
       !st)
     return st;
   return create_writer(publisher, participant, protocol::Topic::kStatus, ownership_strength_,
-                       status_writer_);
+                       protocol::kLivelinessLease, status_writer_);
 }
 
 void DdsOutbox::write_failed(const char* topic, dds_return_t rc) {

@@ -17,8 +17,10 @@ namespace tc::daemon {
 class DdsOutbox final : public Outbox {
  public:
   /// `ownership_strength`: of the ContactForces and FrameStats writers (EXCLUSIVE
-  /// ownership; dds.ownership_strength).
-  DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength);
+  /// ownership; dds.ownership_strength); `answer_lease_ms`: the liveliness lease those
+  /// writers offer (dds.answer_lease_ms, at most the protocol's 1 s).
+  DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength,
+            double answer_lease_ms);
 
   /// Creates the topics' writers under `participant`. Errors name the DDS call.
   Status create(dds_entity_t participant);
@@ -40,6 +42,7 @@ class DdsOutbox final : public Outbox {
   std::string service_id_;
   std::string partition_;
   std::int32_t ownership_strength_ = 0;
+  dds_duration_t answer_lease_ = 0;
   dds_entity_t forces_writer_ = 0;
   dds_entity_t stats_writer_ = 0;
   dds_entity_t status_writer_ = 0;

@@ -37,7 +37,7 @@ struct Service::Impl {
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
         outbox(config.service_id.empty() ? default_service_id() : config.service_id,
-               config.partition, config.ownership_strength) {}
+               config.partition, config.ownership_strength, config.answer_lease_ms) {}
 
   DaemonConfig config;
   DdsOutbox outbox;
@@ -217,10 +217,11 @@ Status Service::run() {
   SystemdNotifier notifier(Clock::now());
   s.outbox.set_state(ServiceState::kReady, "ready");
   spdlog::info(
-      "tetcollided ready (service {}, domain {}, partition '{}', scenes {}, ownership strength {})",
+      "tetcollided ready (service {}, domain {}, partition '{}', scenes {}, ownership strength {}, "
+      "answer lease {} ms)",
       s.outbox.service_id(), c.domain, c.partition,
       c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")),
-      c.ownership_strength);
+      c.ownership_strength, c.answer_lease_ms);
   notifier.ready("ready: " + status_line(0, 0, 0.0));
 
   const auto heartbeat_period =

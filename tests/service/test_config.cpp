@@ -30,6 +30,7 @@ void expect_same(const DaemonConfig& a, const DaemonConfig& b) {
   EXPECT_EQ(a.cyclonedds_config, b.cyclonedds_config);
   EXPECT_EQ(a.status_period_s, b.status_period_s);
   EXPECT_EQ(a.ownership_strength, b.ownership_strength);
+  EXPECT_EQ(a.answer_lease_ms, b.answer_lease_ms);
   EXPECT_EQ(a.threads, b.threads);
   EXPECT_EQ(a.assembly_wait_ms, b.assembly_wait_ms);
   EXPECT_EQ(a.unknown_object_grace_ms, b.unknown_object_grace_ms);
@@ -68,6 +69,7 @@ dds:
   cyclonedds_config: "file:///etc/x.xml"
   status_period_s: 0.5
   ownership_strength: 20
+  answer_lease_ms: 250
 threads: 3
 frames:
   assembly_wait_ms: 2.5
@@ -94,6 +96,7 @@ log:
   EXPECT_EQ(c.cyclonedds_config, "file:///etc/x.xml");
   EXPECT_DOUBLE_EQ(c.status_period_s, 0.5);
   EXPECT_EQ(c.ownership_strength, 20);
+  EXPECT_DOUBLE_EQ(c.answer_lease_ms, 250.0);
   EXPECT_EQ(c.threads, 3);
   EXPECT_DOUBLE_EQ(c.assembly_wait_ms, 2.5);
   EXPECT_DOUBLE_EQ(c.unknown_object_grace_ms, 50.0);
@@ -145,6 +148,10 @@ INSTANTIATE_TEST_SUITE_P(
                 ErrorCode::kInvalidArgument, "test.yaml:3:23", "dds.ownership_strength"},
         BadCase{"strength_over_int32", "version: 1\ndds:\n  ownership_strength: 2147483648\n",
                 ErrorCode::kInvalidArgument, "test.yaml:3:23", "dds.ownership_strength"},
+        BadCase{"answer_lease_over_protocol", "version: 1\ndds:\n  answer_lease_ms: 1500\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:20", "dds.answer_lease_ms"},
+        BadCase{"answer_lease_too_short", "version: 1\ndds:\n  answer_lease_ms: 5\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:20", "dds.answer_lease_ms"},
         BadCase{"domain_type", "version: 1\ndds:\n  domain: abc\n", ErrorCode::kParse,
                 "test.yaml:3:11", "an integer"},
         BadCase{"negative_wait", "version: 1\nframes:\n  assembly_wait_ms: -1\n",
