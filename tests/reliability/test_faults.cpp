@@ -333,7 +333,10 @@ INSTANTIATE_TEST_SUITE_P(Faults, Loss, ::testing::Values(1, 5),
 // the newest state, not a queue of the frames published meanwhile.
 TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
   auto c = connect("stopped_service");
-  const Motion m(24);  // 15,625 nodes: a 375 kB state per object
+  // 15,625 nodes: a 375 kB state per object. Under a sanitizer 2,197 nodes: there a first
+  // frame of the 83k-tet pair took 5-10 s and its rebuild after the stop 3-6 s on 2 loaded
+  // cores, longer than any sane window (the publishing bound is a Release figure anyway).
+  const Motion m(test::kSanitized ? 12 : 24);
   c->register_object("a", m.a, {});
   c->register_object("b", m.b, {});
   ASSERT_TRUE(c->wait_registered("a", 30s).ok);
@@ -355,8 +358,8 @@ TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
   // 4 s stop outlasts the client's 1 s lease, so the service drops both objects when it
   // resumes, answers unknown_object, and the client library writes their topologies again
   // (docs/PROTOCOL.md, "Liveliness lease"); the service builds them again after the frame
-  // it was computing. Measured 0.5 s in Release; under ASan a first frame of these two
-  // objects takes about 5 s, and forces came back 14.7 s after SIGCONT.
+  // it was computing. Measured 0.4-0.5 s in Release, 3.2-4.3 s under ASan beside another
+  // test.
   const double end_ms = 5000.0 + 6000.0 * test::kTimeSlack;
   std::atomic<bool> ok_after_continue{false};
   c->set_forces_callback([&](const client::FrameForces& f) {
@@ -409,10 +412,11 @@ TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
   // At most the frames the service had already taken in (one running, max_queued = 2
   // waiting) are answered late; the 4 s published meanwhile are not replayed.
   EXPECT_LE(old_after_continue, 3);
-  EXPECT_GE(first_new_ms, 0.0) << "no frame published after SIGCONT was answered";
-  EXPECT_LT(first_new_ms, 1000.0 * test::kTimeSlack);
-  // The objects are back: forces again, not unknown_object for ever.
+  // The objects are back: forces again, not unknown_object for ever. (The first answer to
+  // a new frame may be that one: once the client wrote the topologies again, the service
+  // holds the states until it has built them, instead of rejecting them.)
   EXPECT_GE(first_ok_ms, 0.0) << "no frame published after SIGCONT was answered with forces";
+  EXPECT_LT(first_ok_ms, 2000.0 * test::kTimeSlack);
   std::printf(
       "[ figure ] service stopped 4 s: longest publish_states %.1f ms (while stopped "
       "%.1f ms); %d old frames answered after SIGCONT; first new frame answered %.0f ms "
@@ -425,7 +429,9 @@ TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
 // the stopped client is answered for its newest frames again.
 TEST_F(Faults, StoppedClientBlocksNeitherTheServiceNorOtherClients) {
   ChildProcess worker;
-  start_worker(worker, "stopped_client", 16);
+  // Its objects are removed during the stop and built again after it: 4,913 nodes each,
+  // 729 under a sanitizer (there 2 x 24,576 tets took 3 s to build again on loaded cores).
+  start_worker(worker, "stopped_client", test::kSanitized ? 8 : 16);
   if (HasFatalFailure()) return;
   auto c = connect("other");
   const Motion m(3);
@@ -438,7 +444,7 @@ TEST_F(Faults, StoppedClientBlocksNeitherTheServiceNorOtherClients) {
   bool continued = false;
   double max_latency_stopped = 0.0;
   double max_latency = 0.0;
-  for (std::int64_t f = 0; ms_since(start) < 7000; ++f) {
+  for (std::int64_t f = 0; ms_since(start) < 5000 + 2000 * test::kTimeSlack; ++f) {
     const double t = ms_since(start);
     if (!stopped && t >= 1000) {
       ASSERT_EQ(kill(worker.pid(), SIGSTOP), 0);
@@ -464,7 +470,7 @@ TEST_F(Faults, StoppedClientBlocksNeitherTheServiceNorOtherClients) {
   const auto summary = nlohmann::json::parse(read_text(dir_ / "stopped_client.out"));
   const auto last_published = summary["last_published_frame"].get<std::int64_t>();
   const auto last_answered = summary["last_answered_frame"].get<std::int64_t>();
-  // Answered up to its newest frames after SIGCONT (60 Hz, 2 s after the stop).
+  // Answered up to its newest frames after SIGCONT (60 Hz, 2 s or more after it).
   EXPECT_GE(last_answered, last_published - 10);
   // Its objects were declared dead during the stop (lease 1 s) and removed; the client
   // library registered them again by itself, so it lost at most a few frames to
