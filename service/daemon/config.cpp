@@ -163,8 +163,26 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
             c.ownership_strength = static_cast<std::int32_t>(
                 p.integer(v, kk, 0, std::numeric_limits<std::int32_t>::max()));
           }},
-         {"answer_lease_ms", [&](const YAML::Node& v, const std::string& kk) {
+         {"answer_lease_ms",
+          [&](const YAML::Node& v, const std::string& kk) {
             c.answer_lease_ms = p.real(v, kk, 10.0, 1000.0);
+          }},
+         {"shard_strengths", [&](const YAML::Node& v, const std::string& kk) {
+            c.shard_strengths.clear();
+            if (v.IsNull()) return;
+            if (!v.IsMap())
+              p.fail(ErrorCode::kParse, v,
+                     "'" + kk + "' must be a map of scene pattern: ownership strength");
+            for (const auto& entry : v) {
+              const std::string pattern = p.text(entry.first, kk);
+              if (pattern.empty())
+                p.fail(ErrorCode::kInvalidArgument, entry.first,
+                       "'" + kk + "': empty scene pattern");
+              c.shard_strengths.emplace_back(
+                  pattern,
+                  static_cast<std::int32_t>(p.integer(entry.second, kk + "." + pattern, 0,
+                                                      std::numeric_limits<std::int32_t>::max())));
+            }
           }}});
   };
   const auto frames = [&](const YAML::Node& n, const std::string& k) {
@@ -282,6 +300,14 @@ Status check_config(const DaemonConfig& c) {
   if (c.limits.max_tets < 1 || c.limits.max_tets > tetcollide_MAX_TETS)
     return Error{ErrorCode::kInvalidArgument, "limits.max_tets is out of range"};
   return {};
+}
+
+std::int32_t scene_strength(const std::vector<std::pair<std::string, std::int32_t>>& shards,
+                            std::int32_t fallback, std::string_view scene) {
+  const std::string name(scene);
+  for (const auto& [pattern, strength] : shards)
+    if (fnmatch(pattern.c_str(), name.c_str(), 0) == 0) return strength;
+  return fallback;
 }
 
 bool scene_selected(const std::vector<std::string>& patterns, std::string_view scene) {

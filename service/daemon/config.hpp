@@ -32,6 +32,11 @@ struct DaemonConfig {
   /// Ownership strength of the answer writers (ContactForces, FrameStats: EXCLUSIVE):
   /// clients see the answers of the strongest live daemon serving a scene. 0..2^31-1.
   std::int32_t ownership_strength = 0;
+  /// Per-shard strengths (dds.shard_strengths): (scene pattern, strength) in the file's
+  /// order; a scene takes the strength of the first pattern it matches, else
+  /// ownership_strength. One daemon can so be the primary of one shard and the standby of
+  /// another (one answer writer per distinct strength).
+  std::vector<std::pair<std::string, std::int32_t>> shard_strengths;
   /// Liveliness lease of those answer writers, ms (10..1000): how long after this daemon
   /// stopped a client's reader takes a standby's answers. Shorter than the protocol's 1 s
   /// lease of every other writer, which a client's readers request.
@@ -71,5 +76,10 @@ Status check_config(const DaemonConfig& config);
 
 /// True when `scene` is served by a daemon with these scene patterns.
 bool scene_selected(const std::vector<std::string>& patterns, std::string_view scene);
+
+/// The ownership strength of `scene`'s answers: that of the first pattern of `shards`
+/// (DaemonConfig::shard_strengths) it matches, else `fallback` (ownership_strength).
+std::int32_t scene_strength(const std::vector<std::pair<std::string, std::int32_t>>& shards,
+                            std::int32_t fallback, std::string_view scene);
 
 }  // namespace tc::daemon

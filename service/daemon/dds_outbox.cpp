@@ -73,28 +73,39 @@ Status create_writer(dds_entity_t publisher, dds_entity_t participant, protocol:
 
 }  // namespace
 
-DdsOutbox::DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength,
-                     double answer_lease_ms)
+DdsOutbox::DdsOutbox(std::string service_id, const DaemonConfig& config)
     : service_id_(std::move(service_id)),
-      partition_(std::move(partition)),
-      ownership_strength_(ownership_strength),
-      answer_lease_(static_cast<dds_duration_t>(answer_lease_ms * 1e6)) {}
+      partition_(config.partition),
+      ownership_strength_(config.ownership_strength),
+      shard_strengths_(config.shard_strengths),
+      answer_lease_(static_cast<dds_duration_t>(config.answer_lease_ms * 1e6)) {}
 
 Status DdsOutbox::create(dds_entity_t participant) {
   const auto pqos = protocol::partition_qos(partition_);
   const dds_entity_t publisher = dds_create_publisher(participant, pqos.get(), nullptr);
   if (publisher < 0)
     return Error{ErrorCode::kIo, "dds_create_publisher: " + protocol::dds_error(publisher)};
-  if (Status st = create_writer(publisher, participant, protocol::Topic::kForces,
-                                ownership_strength_, answer_lease_, forces_writer_);
-      !st)
-    return st;
-  if (Status st = create_writer(publisher, participant, protocol::Topic::kStats,
-                                ownership_strength_, answer_lease_, stats_writer_);
-      !st)
-    return st;
+  std::vector<std::int32_t> strengths{ownership_strength_};
+  for (const auto& shard : shard_strengths_) strengths.push_back(shard.second);
+  for (const std::int32_t strength : strengths) {
+    if (answer_writers_.count(strength) != 0) continue;
+    AnswerWriters& w = answer_writers_[strength];
+    if (Status st = create_writer(publisher, participant, protocol::Topic::kForces, strength,
+                                  answer_lease_, w.forces);
+        !st)
+      return st;
+    if (Status st = create_writer(publisher, participant, protocol::Topic::kStats, strength,
+                                  answer_lease_, w.stats);
+        !st)
+      return st;
+  }
   return create_writer(publisher, participant, protocol::Topic::kStatus, ownership_strength_,
                        protocol::kLivelinessLease, status_writer_);
+}
+
+const DdsOutbox::AnswerWriters& DdsOutbox::answer_writers(std::string_view scene) const {
+  // Every strength scene_strength() can return has its writers (create()).
+  return answer_writers_.at(scene_strength(shard_strengths_, ownership_strength_, scene));
 }
 
 void DdsOutbox::write_failed(const char* topic, dds_return_t rc) {
@@ -123,7 +134,7 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   for (std::size_t i = 0; i < left_out.size(); ++i) copy_cut(left_out[i].text, m.left_out[i]);
   protocol::borrow(s.left_out, reinterpret_cast<WireObjectName::Text*>(left_out.data()),
                    left_out.size());
-  if (const dds_return_t rc = dds_write(forces_writer_, &s); rc < 0)
+  if (const dds_return_t rc = dds_write(answer_writers(m.scene).forces, &s); rc < 0)
     write_failed("ContactForces", rc);
 }
 
@@ -148,7 +159,8 @@ void DdsOutbox::publish_stats(const StatsMessage& m) {
   s.contacts = m.core.contacts;
   s.max_depth = m.core.max_depth;
   s.dropped_frames = m.dropped_frames;
-  if (const dds_return_t rc = dds_write(stats_writer_, &s); rc < 0) write_failed("FrameStats", rc);
+  if (const dds_return_t rc = dds_write(answer_writers(m.scene).stats, &s); rc < 0)
+    write_failed("FrameStats", rc);
 }
 
 void DdsOutbox::publish_status(const StatusMessage& m) {

@@ -7,8 +7,13 @@
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
 
+#include "config.hpp"
 #include "core/common/result.hpp"
 #include "outbox.hpp"
 
@@ -16,11 +21,12 @@ namespace tc::daemon {
 
 class DdsOutbox final : public Outbox {
  public:
-  /// `ownership_strength`: of the ContactForces and FrameStats writers (EXCLUSIVE
-  /// ownership; dds.ownership_strength); `answer_lease_ms`: the liveliness lease those
-  /// writers offer (dds.answer_lease_ms, at most the protocol's 1 s).
-  DdsOutbox(std::string service_id, std::string partition, std::int32_t ownership_strength,
-            double answer_lease_ms);
+  /// `config.ownership_strength` and `config.shard_strengths`: of the ContactForces and
+  /// FrameStats writers (EXCLUSIVE ownership), one pair of writers per distinct strength,
+  /// each scene's answers written by the pair of its strength; `config.answer_lease_ms`:
+  /// the liveliness lease those writers offer (at most the protocol's 1 s);
+  /// `config.partition`: the DDS partition of every writer.
+  DdsOutbox(std::string service_id, const DaemonConfig& config);
 
   /// Creates the topics' writers under `participant`. Errors name the DDS call.
   Status create(dds_entity_t participant);
@@ -41,10 +47,17 @@ class DdsOutbox final : public Outbox {
 
   std::string service_id_;
   std::string partition_;
+  /// The answer writers of the scenes of one ownership strength.
+  struct AnswerWriters {
+    dds_entity_t forces = 0;
+    dds_entity_t stats = 0;
+  };
+  [[nodiscard]] const AnswerWriters& answer_writers(std::string_view scene) const;
+
   std::int32_t ownership_strength_ = 0;
+  std::vector<std::pair<std::string, std::int32_t>> shard_strengths_;
   dds_duration_t answer_lease_ = 0;
-  dds_entity_t forces_writer_ = 0;
-  dds_entity_t stats_writer_ = 0;
+  std::map<std::int32_t, AnswerWriters> answer_writers_;  // by strength; made in create()
   dds_entity_t status_writer_ = 0;
   std::atomic<int> state_{0};
   std::atomic<std::uint64_t> sequence_{0};

@@ -33,11 +33,18 @@ std::string default_service_id() {
   return "tetcollided-" + std::string(host.data()) + "-" + std::to_string(getpid());
 }
 
+/// ", shards <pattern> <strength>, ..." for the ready line; "" without shard strengths.
+std::string shard_strengths_text(const DaemonConfig& c) {
+  std::string out;
+  for (const auto& [pattern, strength] : c.shard_strengths)
+    out += (out.empty() ? ", shards " : ", ") + pattern + " " + std::to_string(strength);
+  return out;
+}
+
 struct Service::Impl {
   explicit Impl(DaemonConfig c)
       : config(std::move(c)),
-        outbox(config.service_id.empty() ? default_service_id() : config.service_id,
-               config.partition, config.ownership_strength, config.answer_lease_ms) {}
+        outbox(config.service_id.empty() ? default_service_id() : config.service_id, config) {}
 
   DaemonConfig config;
   DdsOutbox outbox;
@@ -217,11 +224,12 @@ Status Service::run() {
   SystemdNotifier notifier(Clock::now());
   s.outbox.set_state(ServiceState::kReady, "ready");
   spdlog::info(
-      "tetcollided ready (service {}, domain {}, partition '{}', scenes {}, ownership strength {}, "
+      "tetcollided ready (service {}, domain {}, partition '{}', scenes {}, ownership strength "
+      "{}{}, "
       "answer lease {} ms)",
       s.outbox.service_id(), c.domain, c.partition,
       c.scenes.empty() ? std::string("all") : fmt::format("{}", fmt::join(c.scenes, ",")),
-      c.ownership_strength, c.answer_lease_ms);
+      c.ownership_strength, shard_strengths_text(c), c.answer_lease_ms);
   notifier.ready("ready: " + status_line(0, 0, 0.0));
 
   const auto heartbeat_period =

@@ -31,6 +31,7 @@ void expect_same(const DaemonConfig& a, const DaemonConfig& b) {
   EXPECT_EQ(a.status_period_s, b.status_period_s);
   EXPECT_EQ(a.ownership_strength, b.ownership_strength);
   EXPECT_EQ(a.answer_lease_ms, b.answer_lease_ms);
+  EXPECT_EQ(a.shard_strengths, b.shard_strengths);
   EXPECT_EQ(a.threads, b.threads);
   EXPECT_EQ(a.assembly_wait_ms, b.assembly_wait_ms);
   EXPECT_EQ(a.unknown_object_grace_ms, b.unknown_object_grace_ms);
@@ -70,6 +71,7 @@ dds:
   status_period_s: 0.5
   ownership_strength: 20
   answer_lease_ms: 250
+  shard_strengths: {"surgery-a*": 20, "surgery*": 10}
 threads: 3
 frames:
   assembly_wait_ms: 2.5
@@ -97,6 +99,12 @@ log:
   EXPECT_DOUBLE_EQ(c.status_period_s, 0.5);
   EXPECT_EQ(c.ownership_strength, 20);
   EXPECT_DOUBLE_EQ(c.answer_lease_ms, 250.0);
+  EXPECT_EQ(c.shard_strengths, (std::vector<std::pair<std::string, std::int32_t>>{
+                                   {"surgery-a*", 20}, {"surgery*", 10}}));
+  // First matching pattern, in the file's order; the rest keep ownership_strength.
+  EXPECT_EQ(scene_strength(c.shard_strengths, c.ownership_strength, "surgery-a1"), 20);
+  EXPECT_EQ(scene_strength(c.shard_strengths, c.ownership_strength, "surgery-b1"), 10);
+  EXPECT_EQ(scene_strength(c.shard_strengths, c.ownership_strength, "demo"), 20);
   EXPECT_EQ(c.threads, 3);
   EXPECT_DOUBLE_EQ(c.assembly_wait_ms, 2.5);
   EXPECT_DOUBLE_EQ(c.unknown_object_grace_ms, 50.0);
@@ -152,6 +160,10 @@ INSTANTIATE_TEST_SUITE_P(
                 ErrorCode::kInvalidArgument, "test.yaml:3:20", "dds.answer_lease_ms"},
         BadCase{"answer_lease_too_short", "version: 1\ndds:\n  answer_lease_ms: 5\n",
                 ErrorCode::kInvalidArgument, "test.yaml:3:20", "dds.answer_lease_ms"},
+        BadCase{"shard_strengths_not_map", "version: 1\ndds:\n  shard_strengths: [1, 2]\n",
+                ErrorCode::kParse, "test.yaml:3:20", "dds.shard_strengths"},
+        BadCase{"shard_strength_negative", "version: 1\ndds:\n  shard_strengths: {\"a*\": -1}\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:27", "dds.shard_strengths.a*"},
         BadCase{"domain_type", "version: 1\ndds:\n  domain: abc\n", ErrorCode::kParse,
                 "test.yaml:3:11", "an integer"},
         BadCase{"negative_wait", "version: 1\nframes:\n  assembly_wait_ms: -1\n",
