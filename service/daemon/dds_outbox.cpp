@@ -103,6 +103,14 @@ Status DdsOutbox::create(dds_entity_t participant) {
                        protocol::kLivelinessLease, status_writer_);
 }
 
+void DdsOutbox::watch(IncompatibleQosMonitor& monitor) const {
+  for (const auto& [strength, w] : answer_writers_) {
+    monitor.add_writer(w.forces, protocol::Topic::kForces);
+    monitor.add_writer(w.stats, protocol::Topic::kStats);
+  }
+  monitor.add_writer(status_writer_, protocol::Topic::kStatus);
+}
+
 const DdsOutbox::AnswerWriters& DdsOutbox::answer_writers(std::string_view scene) const {
   // Every strength scene_strength() can return has its writers (create()).
   return answer_writers_.at(scene_strength(shard_strengths_, ownership_strength_, scene));

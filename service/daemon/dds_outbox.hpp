@@ -16,6 +16,7 @@
 #include "config.hpp"
 #include "core/common/result.hpp"
 #include "outbox.hpp"
+#include "qos_check.hpp"
 
 namespace tc::daemon {
 
@@ -34,6 +35,9 @@ class DdsOutbox final : public Outbox {
   void publish_forces(const ForcesMessage& message) override;
   void publish_stats(const StatsMessage& message) override;
   void publish_status(const StatusMessage& message) override;
+
+  /// Adds this outbox's writers to `monitor` (after create()).
+  void watch(IncompatibleQosMonitor& monitor) const;
 
   /// Sets the state stamped on status samples and publishes a kStateChange sample.
   void set_state(ServiceState state, const std::string& message);

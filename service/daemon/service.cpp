@@ -48,6 +48,7 @@ struct Service::Impl {
 
   DaemonConfig config;
   DdsOutbox outbox;
+  IncompatibleQosMonitor qos_monitor;
   std::unique_ptr<Scheduler> scheduler;
   std::unique_ptr<Router> router;
 
@@ -200,6 +201,9 @@ Status Service::start() {
     return st;
   if (Status st = s.create_reader(subscriber, protocol::Topic::kState, s.state_reader); !st)
     return st;
+  s.qos_monitor.add_reader(s.topology_reader, protocol::Topic::kTopology);
+  s.qos_monitor.add_reader(s.state_reader, protocol::Topic::kState);
+  s.outbox.watch(s.qos_monitor);
 
   s.waitset = dds_create_waitset(s.participant);
   if (s.waitset < 0) return dds_failure("dds_create_waitset", s.waitset);
@@ -277,6 +281,15 @@ Status Service::run() {
       hb.kind = StatusKind::kHeartbeat;
       hb.message = std::to_string(s.router->scene_count()) + " scenes";
       s.outbox.publish_status(hb);
+      // Clients whose QoS keeps DDS from matching them hear nothing else: tell them here.
+      for (auto& text : s.qos_monitor.poll()) {
+        spdlog::warn("{}", text);
+        StatusMessage msg;
+        msg.kind = StatusKind::kError;
+        msg.code = tetcollide_STATUS_INVALID_ARGUMENT;
+        msg.message = std::move(text);
+        s.outbox.publish_status(msg);
+      }
       const std::uint64_t frames = s.router->dispatched_frames();
       const double seconds = std::chrono::duration<double>(now - last_heartbeat).count();
       notifier.status(status_line(

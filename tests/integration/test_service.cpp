@@ -340,6 +340,54 @@ TEST_F(ServiceTest, ACutReplacesTheTopologyBetweenFrames) {
 // A surface object (issue 19) through the service: a plate of triangles pressed into a
 // static box is pushed up, the box takes the reactions (the sum of every force is zero),
 // nothing when apart; a bad surface topology and a NaN state are rejected by name.
+// A client written from the docs that got a QoS policy wrong is not matched by DDS and
+// would hear nothing: the service names the topic and the policy in a ServiceStatus
+// error (and its log) instead. Here: a ContactForces reader with the default SHARED
+// ownership (the answer topics are EXCLUSIVE) and a MeshTopology writer with the default
+// VOLATILE durability and infinite lease.
+TEST_F(ServiceTest, AClientWithIncompatibleQosIsToldWhatIsWrong) {
+  auto c = connect("qos");
+  const dds_entity_t participant = dds_create_participant(domain_, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  const auto make_topic = [&](protocol::Topic t) {
+    return dds_create_topic(participant, protocol::topic_descriptor(t), protocol::topic_name(t),
+                            nullptr, nullptr);
+  };
+  {
+    auto qos = protocol::topic_qos(protocol::Topic::kForces);
+    dds_qset_ownership(qos.get(), DDS_OWNERSHIP_SHARED);
+    ASSERT_GT(
+        dds_create_reader(participant, make_topic(protocol::Topic::kForces), qos.get(), nullptr),
+        0);
+  }
+  const auto forces = wait_status(*c, [](const client::StatusEvent& e) {
+    return e.kind == client::StatusEvent::Kind::kError &&
+           e.message.find("tetcollide/ContactForces") != std::string::npos;
+  });
+  ASSERT_TRUE(forces.has_value()) << "no error names the SHARED ContactForces reader";
+  EXPECT_EQ(forces->code, static_cast<std::int32_t>(StatusCode::kInvalidArgument));
+  EXPECT_NE(forces->message.find("OWNERSHIP"), std::string::npos) << forces->message;
+  EXPECT_NE(forces->message.find("EXCLUSIVE"), std::string::npos) << forces->message;
+
+  ASSERT_GT(
+      dds_create_writer(participant, make_topic(protocol::Topic::kTopology), nullptr, nullptr), 0);
+  const auto topology = wait_status(*c, [](const client::StatusEvent& e) {
+    return e.kind == client::StatusEvent::Kind::kError &&
+           e.message.find("tetcollide/MeshTopology") != std::string::npos;
+  });
+  ASSERT_TRUE(topology.has_value()) << "no error names the default-QoS MeshTopology writer";
+  EXPECT_TRUE(topology->message.find("DURABILITY") != std::string::npos ||
+              topology->message.find("LIVELINESS") != std::string::npos)
+      << topology->message;
+  EXPECT_NE(daemon_->log_text().find("incompatible QoS not matched"), std::string::npos);
+  std::printf("[ message ] %s\n[ message ] %s\n", forces->message.c_str(),
+              topology->message.c_str());
+  dds_delete(participant);
+  // A well-configured client is served as before.
+  c->register_object("box", box_mesh(1, {0, 0, 0}, {1, 1, 1}), {});
+  EXPECT_TRUE(c->wait_registered("box", 10s).ok);
+}
+
 TEST_F(ServiceTest, ASurfaceObjectPressedIntoABoxIsPushedOut) {
   auto c = connect("surface");
   client::ObjectParams box_params;
