@@ -82,12 +82,10 @@ client::ObjectParams to_params(const sim::ObjectSpec& o) {
   p.damping = o.contact.damping;
   p.max_force = o.contact.max_force;
   p.is_static = o.is_static;
-  p.depth = o.contact.depth == "cffm"    ? client::DepthMethod::kCffm
-            : o.contact.depth == "exact" ? client::DepthMethod::kExact
-                                         : client::DepthMethod::kCpfm;
-  p.response = o.contact.response == "point"     ? client::ResponseKind::kPoint
-               : o.contact.response == "segment" ? client::ResponseKind::kSegment
-                                                 : client::ResponseKind::kAuto;
+  // Scene files are validated on load (scene_file.cpp): both names parse.
+  p.depth = client::parse_depth_method(o.contact.depth).value_or(client::DepthMethod::kCpfm);
+  p.response =
+      client::parse_response_kind(o.contact.response).value_or(client::ResponseKind::kAuto);
   return p;
 }
 

@@ -101,12 +101,9 @@ int run_respond(const RespondArgs& args) {
   const std::string kind_a = kind_of(*a), kind_b = kind_of(*b);
   ObjectParams params;
   params.stiffness = args.stiffness;
-  params.response = args.response == "point"     ? ResponseKind::kPoint
-                    : args.response == "segment" ? ResponseKind::kSegment
-                                                 : ResponseKind::kAuto;
-  params.depth = args.depth == "cffm"    ? DepthMethod::kCffm
-                 : args.depth == "exact" ? DepthMethod::kExact
-                                         : DepthMethod::kCpfm;
+  // --response and --depth are checked by CLI11 (IsMember): both names parse.
+  params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
+  params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
   PipelineConfig config;
   config.broad_phase = args.broad;
   config.record_contacts = !args.contacts_csv.empty() || args.exact_check;

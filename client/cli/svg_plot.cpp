@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/common/xml.hpp"
+
 namespace tc::cli {
 namespace {
 
@@ -16,29 +18,6 @@ const char* const kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#946
 
 std::string color_of(int i) {
   return kColors[static_cast<std::size_t>(i) % std::size(kColors)];
-}
-
-std::string escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 std::string num(double v) {
@@ -136,7 +115,7 @@ std::string render_svg(const LogLogPlot& plot) {
     << "\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n";
   s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   s << "<text x=\"" << num((kLeft + kRight) / 2) << "\" y=\"30\" font-size=\"18\" "
-    << "text-anchor=\"middle\">" << escape(plot.title) << "</text>\n";
+    << "text-anchor=\"middle\">" << tc::xml_escape(plot.title) << "</text>\n";
 
   // Grid: decades (solid) and 2, 5 (dotted), with labels at decades.
   for (int e = ax.lo; e <= ax.hi; ++e) {
@@ -168,9 +147,9 @@ std::string render_svg(const LogLogPlot& plot) {
   s << "<rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << kRight - kLeft
     << "\" height=\"" << kBottom - kTop << "\" fill=\"none\" stroke=\"black\"/>\n";
   s << "<text x=\"" << num((kLeft + kRight) / 2) << "\" y=\"" << kBottom + 48
-    << "\" font-size=\"15\" text-anchor=\"middle\">" << escape(plot.x_label) << "</text>\n";
+    << "\" font-size=\"15\" text-anchor=\"middle\">" << tc::xml_escape(plot.x_label) << "</text>\n";
   s << "<text transform=\"translate(24," << num((kTop + kBottom) / 2)
-    << ") rotate(-90)\" font-size=\"15\" text-anchor=\"middle\">" << escape(plot.y_label)
+    << ") rotate(-90)\" font-size=\"15\" text-anchor=\"middle\">" << tc::xml_escape(plot.y_label)
     << "</text>\n";
 
   for (const auto& [a, b] : plot.links) {
@@ -192,7 +171,7 @@ std::string render_svg(const LogLogPlot& plot) {
   for (std::size_t i = 0; i < plot.color_names.size(); ++i, y += 22) {
     s << marker(0, lx + 8, y, color_of(static_cast<int>(i)), true) << "\n";
     s << "<text x=\"" << lx + 24 << "\" y=\"" << num(y + 5) << "\" font-size=\"14\">"
-      << escape(plot.color_names[i]) << "</text>\n";
+      << tc::xml_escape(plot.color_names[i]) << "</text>\n";
   }
   y += 10;
   s << "<text x=\"" << lx << "\" y=\"" << num(y + 4) << "\" font-size=\"14\" "
@@ -201,12 +180,12 @@ std::string render_svg(const LogLogPlot& plot) {
   for (std::size_t i = 0; i < plot.shape_names.size(); ++i, y += 22) {
     s << marker(static_cast<int>(i), lx + 8, y, "#444444", true) << "\n";
     s << "<text x=\"" << lx + 24 << "\" y=\"" << num(y + 5) << "\" font-size=\"14\">"
-      << escape(plot.shape_names[i]) << "</text>\n";
+      << tc::xml_escape(plot.shape_names[i]) << "</text>\n";
   }
   y += 10;
   for (const std::string& note : plot.notes) {
-    s << "<text x=\"" << lx << "\" y=\"" << num(y + 5) << "\" font-size=\"13\">" << escape(note)
-      << "</text>\n";
+    s << "<text x=\"" << lx << "\" y=\"" << num(y + 5) << "\" font-size=\"13\">"
+      << tc::xml_escape(note) << "</text>\n";
     y += 19;
   }
   s << "</svg>\n";

@@ -60,6 +60,42 @@ const char* status_name(std::int32_t code) noexcept {
   return protocol::status_name(code).data();
 }
 
+const char* depth_method_name(DepthMethod method) noexcept {
+  switch (method) {
+    case DepthMethod::kCpfm:
+      return "cpfm";
+    case DepthMethod::kCffm:
+      return "cffm";
+    case DepthMethod::kExact:
+      return "exact";
+  }
+  return "unknown";
+}
+
+std::optional<DepthMethod> parse_depth_method(std::string_view name) noexcept {
+  for (const DepthMethod m : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact})
+    if (name == depth_method_name(m)) return m;
+  return std::nullopt;
+}
+
+const char* response_kind_name(ResponseKind kind) noexcept {
+  switch (kind) {
+    case ResponseKind::kPoint:
+      return "point";
+    case ResponseKind::kSegment:
+      return "segment";
+    case ResponseKind::kAuto:
+      return "auto";
+  }
+  return "unknown";
+}
+
+std::optional<ResponseKind> parse_response_kind(std::string_view name) noexcept {
+  for (const ResponseKind k : {ResponseKind::kPoint, ResponseKind::kSegment, ResponseKind::kAuto})
+    if (name == response_kind_name(k)) return k;
+  return std::nullopt;
+}
+
 const ObjectForces* FrameForces::find(const std::string& object) const {
   for (const auto& o : objects)
     if (o.object == object) return &o;

@@ -201,16 +201,12 @@ struct PyFrameForces {
 // --- client -------------------------------------------------------------------------
 
 tc::client::DepthMethod parse_depth(const std::string& s) {
-  if (s == "cpfm") return tc::client::DepthMethod::kCpfm;
-  if (s == "cffm") return tc::client::DepthMethod::kCffm;
-  if (s == "exact") return tc::client::DepthMethod::kExact;
+  if (const auto m = tc::client::parse_depth_method(s)) return *m;
   raise_value("depth: expected 'cpfm', 'cffm' or 'exact', got '" + s + "'");
 }
 
 tc::client::ResponseKind parse_response(const std::string& s) {
-  if (s == "point") return tc::client::ResponseKind::kPoint;
-  if (s == "segment") return tc::client::ResponseKind::kSegment;
-  if (s == "auto") return tc::client::ResponseKind::kAuto;
+  if (const auto k = tc::client::parse_response_kind(s)) return *k;
   raise_value("response: expected 'point', 'segment' or 'auto', got '" + s + "'");
 }
 

@@ -76,41 +76,13 @@ std::vector<double> read_doubles(const json& a) {
   return out;
 }
 
-const char* depth_name(client::DepthMethod d) {
-  switch (d) {
-    case client::DepthMethod::kCffm:
-      return "cffm";
-    case client::DepthMethod::kExact:
-      return "exact";
-    case client::DepthMethod::kCpfm:
-      break;
-  }
-  return "cpfm";
-}
-
 client::DepthMethod depth_of(const std::string& s) {
-  if (s == "cpfm") return client::DepthMethod::kCpfm;
-  if (s == "cffm") return client::DepthMethod::kCffm;
-  if (s == "exact") return client::DepthMethod::kExact;
+  if (const auto m = client::parse_depth_method(s)) return *m;
   throw std::invalid_argument("unknown depth method '" + s + "'");
 }
 
-const char* response_name(client::ResponseKind r) {
-  switch (r) {
-    case client::ResponseKind::kPoint:
-      return "point";
-    case client::ResponseKind::kSegment:
-      return "segment";
-    case client::ResponseKind::kAuto:
-      break;
-  }
-  return "auto";
-}
-
 client::ResponseKind response_of(const std::string& s) {
-  if (s == "point") return client::ResponseKind::kPoint;
-  if (s == "segment") return client::ResponseKind::kSegment;
-  if (s == "auto") return client::ResponseKind::kAuto;
+  if (const auto k = client::parse_response_kind(s)) return *k;
   throw std::invalid_argument("unknown response kind '" + s + "'");
 }
 
@@ -128,8 +100,8 @@ json encode(const TopologyRecord& r) {
               {"damping", r.params.damping},
               {"max_force", r.params.max_force},
               {"is_static", r.params.is_static},
-              {"depth", depth_name(r.params.depth)},
-              {"response", response_name(r.params.response)}}}};
+              {"depth", client::depth_method_name(r.params.depth)},
+              {"response", client::response_kind_name(r.params.response)}}}};
   // Only surface objects carry triangles: tet recordings stay as they were.
   if (!r.mesh.triangles.empty()) j["triangles"] = r.mesh.triangles;
   return j;

@@ -12,7 +12,9 @@
 #include <set>
 #include <sstream>
 
+#include "core/distance/depth_solver.hpp"
 #include "core/io/mesh_io.hpp"
+#include "core/response/penalty.hpp"
 
 namespace tc::sim {
 namespace {
@@ -131,10 +133,9 @@ class Parser {
       o.contact.max_force = number(c, "max_force", o.contact.max_force, 0.0, 1e12);
       o.contact.depth = get<std::string>(c, "depth", o.contact.depth);
       o.contact.response = get<std::string>(c, "response", o.contact.response);
-      if (o.contact.depth != "cpfm" && o.contact.depth != "cffm" && o.contact.depth != "exact")
+      if (!parse_depth_method(o.contact.depth))
         fail(c["depth"], "'depth' must be cpfm, cffm or exact");
-      if (o.contact.response != "point" && o.contact.response != "segment" &&
-          o.contact.response != "auto")
+      if (!parse_response_kind(o.contact.response))
         fail(c["response"], "'response' must be point, segment or auto");
     }
     return o;

@@ -34,8 +34,8 @@ std::vector<std::string> IncompatibleQosMonitor::poll() {
     out.push_back(std::string(protocol::topic_name(w.topic)) + ": " + std::to_string(change) +
                   " remote " + remote + (change == 1 ? "" : "s") +
                   " with incompatible QoS not matched (" + std::to_string(total) +
-                  " so far; last policy " + qos_policy_name(policy) + "): " +
-                  qos_hint(w.topic, policy, !w.reader) + " (docs/PROTOCOL.md, Topics)");
+                  " so far; last policy " + qos_policy_name(policy) +
+                  "): " + qos_hint(w.topic, policy, !w.reader) + " (docs/PROTOCOL.md, Topics)");
   }
   return out;
 }

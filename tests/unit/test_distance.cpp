@@ -855,5 +855,15 @@ TEST(Depth2d, LazyEqualsFull) {
   }
 }
 
+// One spelling of the depth methods everywhere (scene files, the CLI, recordings).
+TEST(DepthMethodNames, ParseIsTheInverseOfTheName) {
+  for (const DepthMethod m : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact})
+    EXPECT_EQ(parse_depth_method(depth_method_name(m)), m);
+  EXPECT_EQ(parse_depth_method("cpfm"), DepthMethod::kCpfm);
+  EXPECT_FALSE(parse_depth_method("CPFM").has_value());
+  EXPECT_FALSE(parse_depth_method("").has_value());
+  EXPECT_FALSE(parse_depth_method("cffm:descent").has_value());
+}
+
 }  // namespace
 }  // namespace tc

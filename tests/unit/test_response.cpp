@@ -568,5 +568,13 @@ TEST_P(StiffSweep, BackwardEulerRestsWithPenetrationShrinkingAsStiffnessGrows) {
 INSTANTIATE_TEST_SUITE_P(PointAndSegment, StiffSweep,
                          ::testing::Values(ResponseKind::kPoint, ResponseKind::kSegment));
 
+TEST(ResponseKindNames, ParseIsTheInverseOfTheName) {
+  for (const ResponseKind k : {ResponseKind::kPoint, ResponseKind::kSegment, ResponseKind::kAuto})
+    EXPECT_EQ(parse_response_kind(response_kind_name(k)), k);
+  EXPECT_EQ(parse_response_kind("segment"), ResponseKind::kSegment);
+  EXPECT_FALSE(parse_response_kind("Point").has_value());
+  EXPECT_FALSE(parse_response_kind("").has_value());
+}
+
 }  // namespace
 }  // namespace tc

@@ -1199,4 +1199,10 @@ const char* depth_method_name(DepthMethod method) {
   return "unknown";
 }
 
+std::optional<DepthMethod> parse_depth_method(std::string_view name) {
+  for (const DepthMethod m : {DepthMethod::kCpfm, DepthMethod::kCffm, DepthMethod::kExact})
+    if (name == depth_method_name(m)) return m;
+  return std::nullopt;
+}
+
 }  // namespace tc

@@ -18,7 +18,9 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -199,5 +201,7 @@ Expected<std::vector<double>> compute_depth_exact(const TriMesh2& mesh, const To
 
 /// Short name of a method ("cpfm", "cffm", "exact").
 const char* depth_method_name(DepthMethod method);
+/// The method of a short name (depth_method_name's inverse); nullopt for any other text.
+std::optional<DepthMethod> parse_depth_method(std::string_view name);
 
 }  // namespace tc

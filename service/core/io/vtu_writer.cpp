@@ -9,6 +9,7 @@
 #include <set>
 #include <string>
 
+#include "core/common/xml.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
 
@@ -27,33 +28,6 @@ void append_number(std::string& s, std::int64_t v) {
   char buf[24];
   const auto r = std::to_chars(buf, buf + sizeof(buf), v);
   s.append(buf, r.ptr);
-}
-
-/// Escapes the five XML special characters of an attribute value.
-std::string xml_escape(std::string_view text) {
-  std::string out;
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 /// Values are written 6 per line (x y z of two points, or 6 scalars).

@@ -10,6 +10,25 @@
 #include "core/response/tet_frame.hpp"
 
 namespace tc {
+
+const char* response_kind_name(ResponseKind kind) {
+  switch (kind) {
+    case ResponseKind::kPoint:
+      return "point";
+    case ResponseKind::kSegment:
+      return "segment";
+    case ResponseKind::kAuto:
+      return "auto";
+  }
+  return "unknown";
+}
+
+std::optional<ResponseKind> parse_response_kind(std::string_view name) {
+  for (const ResponseKind k : {ResponseKind::kPoint, ResponseKind::kSegment, ResponseKind::kAuto})
+    if (name == response_kind_name(k)) return k;
+  return std::nullopt;
+}
+
 namespace {
 
 using Vec3 = Eigen::Vector3d;

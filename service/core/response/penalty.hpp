@@ -9,7 +9,9 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
+#include <string_view>
 
 #include "core/detect/contacts.hpp"
 #include "core/mesh/surface_mesh.hpp"
@@ -21,6 +23,11 @@ namespace tc {
 /// Which penalty response an object pair uses: point-in-object (5.1), segment-in-object
 /// (5.2), or kAuto, by mesh density (docs/RESPONSE.md section 6).
 enum class ResponseKind { kPoint, kSegment, kAuto };
+
+/// Short name of a response kind ("point", "segment", "auto").
+const char* response_kind_name(ResponseKind kind);
+/// The kind of a short name (response_kind_name's inverse); nullopt for any other text.
+std::optional<ResponseKind> parse_response_kind(std::string_view name);
 
 /// What a unit of penetration is measured against.
 enum class ForceMeasure {

@@ -26,6 +26,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 // Symbols of the shared library that are part of the API; everything else is hidden.
@@ -62,6 +63,14 @@ TC_CLIENT_API const char* status_name(std::int32_t code) noexcept;
 
 enum class DepthMethod { kCpfm = 0, kCffm = 1, kExact = 2 };
 enum class ResponseKind { kPoint = 0, kSegment = 1, kAuto = 2 };
+
+/// Lower-case names as scene files, recordings and the Python module spell them:
+/// "cpfm", "cffm", "exact"; "point", "segment", "auto". The parsers return nullopt for
+/// any other text.
+TC_CLIENT_API const char* depth_method_name(DepthMethod method) noexcept;
+TC_CLIENT_API std::optional<DepthMethod> parse_depth_method(std::string_view name) noexcept;
+TC_CLIENT_API const char* response_kind_name(ResponseKind kind) noexcept;
+TC_CLIENT_API std::optional<ResponseKind> parse_response_kind(std::string_view name) noexcept;
 
 /// Per-object contact parameters, sent with the topology.
 struct ObjectParams {
