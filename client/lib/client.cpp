@@ -13,6 +13,7 @@
 #include <tuple>
 
 #include "protocol.hpp"
+#include "status_event.hpp"
 #include "take_all.hpp"
 #include "tetcollide.h"
 
@@ -339,18 +340,7 @@ struct Client::Impl {
             const std::string id(protocol::bounded_view(s->service_id));
             if (infos[i].instance_state != DDS_IST_ALIVE) services.erase(id);
             if (!infos[i].valid_data) continue;
-            StatusEvent e;
-            e.service_id = id;
-            e.sequence_number = s->sequence_number;
-            e.state = static_cast<StatusEvent::State>(s->state);
-            e.kind = static_cast<StatusEvent::Kind>(s->kind);
-            e.code = s->code;
-            e.scene = protocol::bounded_view(s->scene);
-            e.object = protocol::bounded_view(s->object);
-            e.topology_version = s->topology_version;
-            e.frame = s->frame;
-            e.message = protocol::bounded_view(s->message);
-            e.topology_timestamp = s->topology_timestamp;
+            StatusEvent e = detail::status_event(*s);
             if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
             if (e.kind == StatusEvent::Kind::kRemoved && e.scene == options.scene &&
                 versions.count(e.object) != 0)

@@ -7,6 +7,7 @@
 
 #include "protocol.hpp"
 #include "recording.hpp"
+#include "status_event.hpp"
 #include "take_all.hpp"
 #include "tetcollide.h"
 
@@ -105,18 +106,7 @@ Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::T
       const auto* s = static_cast<const tetcollide_ServiceStatus*>(sample);
       StatusRecord r;
       r.t = t;
-      auto& e = r.event;
-      e.service_id = protocol::bounded_view(s->service_id);
-      e.sequence_number = s->sequence_number;
-      e.state = static_cast<client::StatusEvent::State>(s->state);
-      e.kind = static_cast<client::StatusEvent::Kind>(s->kind);
-      e.code = s->code;
-      e.scene = protocol::bounded_view(s->scene);
-      e.object = protocol::bounded_view(s->object);
-      e.topology_version = s->topology_version;
-      e.frame = s->frame;
-      e.message = protocol::bounded_view(s->message);
-      e.topology_timestamp = s->topology_timestamp;
+      r.event = client::detail::status_event(*s);
       st = writer.write(r);
       ++summary.status;
       break;
