@@ -3,16 +3,18 @@
 #include <dds/dds.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <map>
 #include <mutex>
 #include <set>
+#include <span>
 #include <thread>
 #include <tuple>
 
 #include "protocol.hpp"
+#include "status_event.hpp"
+#include "take_all.hpp"
 #include "tetcollide.h"
 
 namespace tc::client {
@@ -24,7 +26,6 @@ constexpr std::int32_t kClientStatusDepth = 4096;
 using Clock = std::chrono::steady_clock;
 constexpr std::size_t kKeptFrames = 256;   // answered frames remembered
 constexpr std::size_t kKeptEvents = 4096;  // status events kept until taken
-constexpr std::uint32_t kTakeBatch = 64;
 /// An object the service reports lost is written again at most this often: once per
 /// liveliness lease (docs/PROTOCOL.md, "Liveliness lease").
 constexpr auto kRewriteInterval = std::chrono::milliseconds(1000);
@@ -40,6 +41,12 @@ dds_entity_t check(dds_entity_t e, const std::string& call) {
 
 void check_rc(dds_return_t rc, const std::string& call) {
   if (rc < 0) throw_dds(call, rc);
+}
+
+/// protocol::take_all's loan check: a failed dds_return_loan throws.
+bool loan_returned(dds_return_t rc) {
+  check_rc(rc, "dds_return_loan");
+  return true;
 }
 
 template <std::size_t N>
@@ -300,158 +307,133 @@ struct Client::Impl {
   }
 
   void take_forces(std::vector<FrameForces>& completed) {
-    std::array<void*, kTakeBatch> samples{};
-    std::array<dds_sample_info_t, kTakeBatch> infos{};
-    for (;;) {
-      samples.fill(nullptr);
-      const dds_return_t n =
-          dds_take(forces_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
-      if (n < 0) throw_dds("dds_take(ContactForces)", n);
-      {
-        std::lock_guard lock(mutex);
-        std::set<std::int64_t> touched;
-        for (dds_return_t i = 0; i < n; ++i) {
-          if (!infos[i].valid_data) continue;
-          const auto* s = static_cast<const tetcollide_ContactForces*>(samples[i]);
-          if (protocol::bounded_view(s->scene) != options.scene) continue;
-          std::string object(protocol::bounded_view(s->object));
-          if (versions.count(object) == 0) continue;  // another client's object
-          if (s->status == static_cast<std::int32_t>(StatusCode::kUnknownObject))
-            lost.insert(object);
-          ObjectForces f;
-          f.object = object;
-          f.frame = s->frame;
-          f.topology_version = s->topology_version;
-          f.status = s->status;
-          f.state_frame = s->state_frame;
-          f.answer_id = s->answer_id;
-          // An answer computed without the state this client published for that frame
-          // (the frame was dispatched before the state arrived, e.g. delayed by packet
-          // loss) is not the answer to it: the service answers the frame again once the
-          // state is in. Keep waiting for that one.
-          if (f.status == 0 && f.state_frame != f.frame && published_in(f.frame, object)) continue;
-          f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
-          f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
-          f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
-          for (std::uint32_t k = 0; k < s->left_out._length; ++k)
-            f.left_out.emplace_back(protocol::bounded_view(s->left_out._buffer[k]));
-          auto& frame_answers = answers[s->frame];
-          // The other objects' answers of that same computation were computed without the
-          // missing state too (with its object's older positions), so answers of two
-          // computations of a frame are never combined: an answer of another computation
-          // replaces every answer of the frame taken so far (rejections excepted: they do
-          // not depend on other states). A computation that lacked one of this client's
-          // states thus never completes the frame; the one with every state does.
-          if (f.status == 0 && f.answer_id != 0)
-            std::erase_if(frame_answers, [&](const auto& kv) {
-              return kv.second.status == 0 && kv.second.answer_id != 0 &&
-                     kv.second.answer_id != f.answer_id;
-            });
-          frame_answers[object] = std::move(f);
-          touched.insert(s->frame);
-        }
-        if (callback)
-          for (const auto frame : touched)
-            if (delivered.count(frame) == 0 && complete(frame)) {
-              delivered.insert(frame);
-              completed.push_back(collect(frame));
-            }
-        trim();
-      }
-      check_rc(dds_return_loan(forces_reader, samples.data(), n), "dds_return_loan");
-      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
-    }
+    const dds_return_t n = protocol::take_all(
+        forces_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          std::lock_guard lock(mutex);
+          std::set<std::int64_t> touched;
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* s = static_cast<const tetcollide_ContactForces*>(samples[i]);
+            if (protocol::bounded_view(s->scene) != options.scene) continue;
+            std::string object(protocol::bounded_view(s->object));
+            if (versions.count(object) == 0) continue;  // another client's object
+            if (s->status == static_cast<std::int32_t>(StatusCode::kUnknownObject))
+              lost.insert(object);
+            ObjectForces f;
+            f.object = object;
+            f.frame = s->frame;
+            f.topology_version = s->topology_version;
+            f.status = s->status;
+            f.state_frame = s->state_frame;
+            f.answer_id = s->answer_id;
+            // An answer computed without the state this client published for that frame
+            // (the frame was dispatched before the state arrived, e.g. delayed by packet
+            // loss) is not the answer to it: the service answers the frame again once the
+            // state is in. Keep waiting for that one.
+            if (f.status == 0 && f.state_frame != f.frame && published_in(f.frame, object))
+              continue;
+            f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
+            f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
+            f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
+            for (std::uint32_t k = 0; k < s->left_out._length; ++k)
+              f.left_out.emplace_back(protocol::bounded_view(s->left_out._buffer[k]));
+            auto& frame_answers = answers[s->frame];
+            // The other objects' answers of that same computation were computed without the
+            // missing state too (with its object's older positions), so answers of two
+            // computations of a frame are never combined: an answer of another computation
+            // replaces every answer of the frame taken so far (rejections excepted: they do
+            // not depend on other states). A computation that lacked one of this client's
+            // states thus never completes the frame; the one with every state does.
+            if (f.status == 0 && f.answer_id != 0)
+              std::erase_if(frame_answers, [&](const auto& kv) {
+                return kv.second.status == 0 && kv.second.answer_id != 0 &&
+                       kv.second.answer_id != f.answer_id;
+              });
+            frame_answers[object] = std::move(f);
+            touched.insert(s->frame);
+          }
+          if (callback)
+            for (const auto frame : touched)
+              if (delivered.count(frame) == 0 && complete(frame)) {
+                delivered.insert(frame);
+                completed.push_back(collect(frame));
+              }
+          trim();
+          return true;
+        },
+        loan_returned);
+    if (n < 0) throw_dds("dds_take(ContactForces)", n);
   }
 
   void take_status() {
-    std::array<void*, kTakeBatch> samples{};
-    std::array<dds_sample_info_t, kTakeBatch> infos{};
-    for (;;) {
-      samples.fill(nullptr);
-      const dds_return_t n =
-          dds_take(status_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
-      if (n < 0) throw_dds("dds_take(ServiceStatus)", n);
-      {
-        std::lock_guard lock(mutex);
-        for (dds_return_t i = 0; i < n; ++i) {
-          const auto* s = static_cast<const tetcollide_ServiceStatus*>(samples[i]);
-          const std::string id(protocol::bounded_view(s->service_id));
-          if (infos[i].instance_state != DDS_IST_ALIVE) services.erase(id);
-          if (!infos[i].valid_data) continue;
-          StatusEvent e;
-          e.service_id = id;
-          e.sequence_number = s->sequence_number;
-          e.state = static_cast<StatusEvent::State>(s->state);
-          e.kind = static_cast<StatusEvent::Kind>(s->kind);
-          e.code = s->code;
-          e.scene = protocol::bounded_view(s->scene);
-          e.object = protocol::bounded_view(s->object);
-          e.topology_version = s->topology_version;
-          e.frame = s->frame;
-          e.message = protocol::bounded_view(s->message);
-          e.topology_timestamp = s->topology_timestamp;
-          if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
-          if (e.kind == StatusEvent::Kind::kRemoved && e.scene == options.scene &&
-              versions.count(e.object) != 0)
-            lost.insert(e.object);
-          if (e.scene == options.scene && e.topology_version != 0 && e.frame < 0 &&
-              (e.kind == StatusEvent::Kind::kRegistered || e.kind == StatusEvent::Kind::kError)) {
-            Registration& r = registrations[{e.object, e.topology_version, e.topology_timestamp}];
-            r.done = true;
-            r.ok = e.kind == StatusEvent::Kind::kRegistered;
-            r.code = e.code;
-            r.message = e.message;
+    const dds_return_t n = protocol::take_all(
+        status_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          std::lock_guard lock(mutex);
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            const auto* s = static_cast<const tetcollide_ServiceStatus*>(samples[i]);
+            const std::string id(protocol::bounded_view(s->service_id));
+            if (infos[i].instance_state != DDS_IST_ALIVE) services.erase(id);
+            if (!infos[i].valid_data) continue;
+            StatusEvent e = detail::status_event(*s);
+            if (infos[i].instance_state == DDS_IST_ALIVE) services[id] = e.state;
+            if (e.kind == StatusEvent::Kind::kRemoved && e.scene == options.scene &&
+                versions.count(e.object) != 0)
+              lost.insert(e.object);
+            if (e.scene == options.scene && e.topology_version != 0 && e.frame < 0 &&
+                (e.kind == StatusEvent::Kind::kRegistered || e.kind == StatusEvent::Kind::kError)) {
+              Registration& r = registrations[{e.object, e.topology_version, e.topology_timestamp}];
+              r.done = true;
+              r.ok = e.kind == StatusEvent::Kind::kRegistered;
+              r.code = e.code;
+              r.message = e.message;
+            }
+            events.push_back(std::move(e));
           }
-          events.push_back(std::move(e));
-        }
-        trim();
-      }
-      check_rc(dds_return_loan(status_reader, samples.data(), n), "dds_return_loan");
-      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
-    }
+          trim();
+          return true;
+        },
+        loan_returned);
+    if (n < 0) throw_dds("dds_take(ServiceStatus)", n);
   }
 
   void take_stats() {
-    std::array<void*, kTakeBatch> samples{};
-    std::array<dds_sample_info_t, kTakeBatch> infos{};
-    for (;;) {
-      samples.fill(nullptr);
-      const dds_return_t n =
-          dds_take(stats_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
-      if (n < 0) throw_dds("dds_take(FrameStats)", n);
-      {
-        std::lock_guard lock(mutex);
-        for (dds_return_t i = 0; i < n; ++i) {
-          if (!infos[i].valid_data) continue;
-          const auto* s = static_cast<const tetcollide_FrameStats*>(samples[i]);
-          if (protocol::bounded_view(s->scene) != options.scene) continue;
-          FrameStatsEvent e;
-          e.scene = options.scene;
-          e.frame = s->frame;
-          e.assembly_ms = s->assembly_ms;
-          e.queue_ms = s->queue_ms;
-          e.broad_ms = s->broad_ms;
-          e.narrow_ms = s->narrow_ms;
-          e.depth_ms = s->depth_ms;
-          e.response_ms = s->response_ms;
-          e.compute_ms = s->compute_ms;
-          e.publish_ms = s->publish_ms;
-          e.objects = s->objects;
-          e.states = s->states;
-          e.rejected = s->rejected;
-          e.candidate_pairs = s->candidate_pairs;
-          e.overlapping_pairs = s->overlapping_pairs;
-          e.settled_nodes = s->settled_nodes;
-          e.contacts = s->contacts;
-          e.max_depth = s->max_depth;
-          e.dropped_frames = s->dropped_frames;
-          stats.push_back(std::move(e));
-        }
-        trim();
-      }
-      check_rc(dds_return_loan(stats_reader, samples.data(), n), "dds_return_loan");
-      if (n < static_cast<dds_return_t>(kTakeBatch)) return;
-    }
+    const dds_return_t n = protocol::take_all(
+        stats_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          std::lock_guard lock(mutex);
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* s = static_cast<const tetcollide_FrameStats*>(samples[i]);
+            if (protocol::bounded_view(s->scene) != options.scene) continue;
+            FrameStatsEvent e;
+            e.scene = options.scene;
+            e.frame = s->frame;
+            e.assembly_ms = s->assembly_ms;
+            e.queue_ms = s->queue_ms;
+            e.broad_ms = s->broad_ms;
+            e.narrow_ms = s->narrow_ms;
+            e.depth_ms = s->depth_ms;
+            e.response_ms = s->response_ms;
+            e.compute_ms = s->compute_ms;
+            e.publish_ms = s->publish_ms;
+            e.objects = s->objects;
+            e.states = s->states;
+            e.rejected = s->rejected;
+            e.candidate_pairs = s->candidate_pairs;
+            e.overlapping_pairs = s->overlapping_pairs;
+            e.settled_nodes = s->settled_nodes;
+            e.contacts = s->contacts;
+            e.max_depth = s->max_depth;
+            e.dropped_frames = s->dropped_frames;
+            stats.push_back(std::move(e));
+          }
+          trim();
+          return true;
+        },
+        loan_returned);
+    if (n < 0) throw_dds("dds_take(FrameStats)", n);
   }
 
   /// Reads DDS until `ready()` (evaluated with `mutex` held) or the deadline.

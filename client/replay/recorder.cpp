@@ -3,16 +3,18 @@
 #include <dds/dds.h>
 
 #include <array>
+#include <span>
 
 #include "protocol.hpp"
 #include "recording.hpp"
+#include "status_event.hpp"
+#include "take_all.hpp"
 #include "tetcollide.h"
 
 namespace tc::replay {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr std::uint32_t kBatch = 64;
 /// The recorder keeps more history than the service so a burst is not lost while it
 /// writes the file.
 constexpr std::int32_t kRecorderDepth = 1000;
@@ -32,6 +34,87 @@ struct Participant {
 template <typename T>
 std::vector<T> to_vector(const T* data, std::uint32_t n) {
   return n == 0 ? std::vector<T>{} : std::vector<T>(data, data + n);
+}
+
+/// Writes one taken sample of `topic` to the recording (taken at `t` seconds).
+Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::Topic topic,
+                    const void* sample, const dds_sample_info_t& info, double t) {
+  Status st;
+  switch (topic) {
+    case protocol::Topic::kTopology: {
+      const auto* s = static_cast<const tetcollide_MeshTopology*>(sample);
+      if (info.valid_data) {
+        TopologyRecord r;
+        r.t = t;
+        r.scene = protocol::bounded_view(s->scene);
+        r.object = protocol::bounded_view(s->object);
+        r.version = s->version;
+        r.mesh.node_ids = to_vector(s->node_ids._buffer, s->node_ids._length);
+        r.mesh.rest_positions = to_vector(s->rest_positions._buffer, s->rest_positions._length);
+        r.mesh.tets = to_vector(s->tets._buffer, s->tets._length);
+        r.mesh.triangles = to_vector(s->triangles._buffer, s->triangles._length);
+        r.params.stiffness = s->params.stiffness;
+        r.params.damping = s->params.damping;
+        r.params.max_force = s->params.max_force;
+        r.params.is_static = s->params.is_static;
+        r.params.depth = static_cast<client::DepthMethod>(s->params.depth);
+        r.params.response = static_cast<client::ResponseKind>(s->params.response);
+        st = writer.write(r);
+        ++summary.topologies;
+      }
+      if (st && info.instance_state != DDS_IST_ALIVE) {
+        st = writer.write(RemoveRecord{t, std::string(protocol::bounded_view(s->scene)),
+                                       std::string(protocol::bounded_view(s->object))});
+        ++summary.removals;
+      }
+      break;
+    }
+    case protocol::Topic::kState: {
+      if (!info.valid_data) break;
+      const auto* s = static_cast<const tetcollide_MeshState*>(sample);
+      StateRecord r;
+      r.t = t;
+      r.scene = protocol::bounded_view(s->scene);
+      r.object = protocol::bounded_view(s->object);
+      r.frame = s->frame;
+      r.topology_version = s->topology_version;
+      r.positions = to_vector(s->positions._buffer, s->positions._length);
+      r.velocities = to_vector(s->velocities._buffer, s->velocities._length);
+      st = writer.write(r);
+      ++summary.states;
+      break;
+    }
+    case protocol::Topic::kForces: {
+      if (!info.valid_data) break;
+      const auto* s = static_cast<const tetcollide_ContactForces*>(sample);
+      ForcesRecord r;
+      r.t = t;
+      r.scene = protocol::bounded_view(s->scene);
+      r.object = protocol::bounded_view(s->object);
+      r.frame = s->frame;
+      r.topology_version = s->topology_version;
+      r.status = s->status;
+      r.nodes = to_vector(s->nodes._buffer, s->nodes._length);
+      r.forces = to_vector(s->forces._buffer, s->forces._length);
+      r.stiffness = to_vector(s->stiffness._buffer, s->stiffness._length);
+      st = writer.write(r);
+      ++summary.forces;
+      break;
+    }
+    case protocol::Topic::kStatus: {
+      if (!info.valid_data) break;
+      const auto* s = static_cast<const tetcollide_ServiceStatus*>(sample);
+      StatusRecord r;
+      r.t = t;
+      r.event = client::detail::status_event(*s);
+      st = writer.write(r);
+      ++summary.status;
+      break;
+    }
+    case protocol::Topic::kStats:
+      break;
+  }
+  return st;
 }
 
 }  // namespace
@@ -72,8 +155,6 @@ Expected<RecordSummary> record(const RecordOptions& options, const std::atomic<b
   const auto start = Clock::now();
   const auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
 
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
   for (bool last = false; !last;) {
     // One more pass after the stop request takes what has arrived in the meantime.
     last =
@@ -81,106 +162,23 @@ Expected<RecordSummary> record(const RecordOptions& options, const std::atomic<b
     const dds_return_t w = dds_waitset_wait(waitset, nullptr, 0, last ? 0 : DDS_MSECS(50));
     if (w < 0) return dds_error("dds_waitset_wait", w);
     for (std::size_t i = 0; i < readers.size(); ++i) {
-      for (;;) {
-        samples.fill(nullptr);
-        const dds_return_t n = dds_take(readers[i], samples.data(), infos.data(), kBatch, kBatch);
-        if (n < 0) return dds_error("dds_take", n);
-        const double t = seconds();
-        Status st;
-        for (dds_return_t k = 0; k < n && st; ++k) {
-          const dds_sample_info_t& info = infos[k];
-          switch (topics[i]) {
-            case protocol::Topic::kTopology: {
-              const auto* s = static_cast<const tetcollide_MeshTopology*>(samples[k]);
-              if (info.valid_data) {
-                TopologyRecord r;
-                r.t = t;
-                r.scene = protocol::bounded_view(s->scene);
-                r.object = protocol::bounded_view(s->object);
-                r.version = s->version;
-                r.mesh.node_ids = to_vector(s->node_ids._buffer, s->node_ids._length);
-                r.mesh.rest_positions =
-                    to_vector(s->rest_positions._buffer, s->rest_positions._length);
-                r.mesh.tets = to_vector(s->tets._buffer, s->tets._length);
-                r.mesh.triangles = to_vector(s->triangles._buffer, s->triangles._length);
-                r.params.stiffness = s->params.stiffness;
-                r.params.damping = s->params.damping;
-                r.params.max_force = s->params.max_force;
-                r.params.is_static = s->params.is_static;
-                r.params.depth = static_cast<client::DepthMethod>(s->params.depth);
-                r.params.response = static_cast<client::ResponseKind>(s->params.response);
-                st = writer.write(r);
-                ++summary.topologies;
-              }
-              if (st && info.instance_state != DDS_IST_ALIVE) {
-                st = writer.write(RemoveRecord{t, std::string(protocol::bounded_view(s->scene)),
-                                               std::string(protocol::bounded_view(s->object))});
-                ++summary.removals;
-              }
-              break;
-            }
-            case protocol::Topic::kState: {
-              if (!info.valid_data) break;
-              const auto* s = static_cast<const tetcollide_MeshState*>(samples[k]);
-              StateRecord r;
-              r.t = t;
-              r.scene = protocol::bounded_view(s->scene);
-              r.object = protocol::bounded_view(s->object);
-              r.frame = s->frame;
-              r.topology_version = s->topology_version;
-              r.positions = to_vector(s->positions._buffer, s->positions._length);
-              r.velocities = to_vector(s->velocities._buffer, s->velocities._length);
-              st = writer.write(r);
-              ++summary.states;
-              break;
-            }
-            case protocol::Topic::kForces: {
-              if (!info.valid_data) break;
-              const auto* s = static_cast<const tetcollide_ContactForces*>(samples[k]);
-              ForcesRecord r;
-              r.t = t;
-              r.scene = protocol::bounded_view(s->scene);
-              r.object = protocol::bounded_view(s->object);
-              r.frame = s->frame;
-              r.topology_version = s->topology_version;
-              r.status = s->status;
-              r.nodes = to_vector(s->nodes._buffer, s->nodes._length);
-              r.forces = to_vector(s->forces._buffer, s->forces._length);
-              r.stiffness = to_vector(s->stiffness._buffer, s->stiffness._length);
-              st = writer.write(r);
-              ++summary.forces;
-              break;
-            }
-            case protocol::Topic::kStatus: {
-              if (!info.valid_data) break;
-              const auto* s = static_cast<const tetcollide_ServiceStatus*>(samples[k]);
-              StatusRecord r;
-              r.t = t;
-              auto& e = r.event;
-              e.service_id = protocol::bounded_view(s->service_id);
-              e.sequence_number = s->sequence_number;
-              e.state = static_cast<client::StatusEvent::State>(s->state);
-              e.kind = static_cast<client::StatusEvent::Kind>(s->kind);
-              e.code = s->code;
-              e.scene = protocol::bounded_view(s->scene);
-              e.object = protocol::bounded_view(s->object);
-              e.topology_version = s->topology_version;
-              e.frame = s->frame;
-              e.message = protocol::bounded_view(s->message);
-              e.topology_timestamp = s->topology_timestamp;
-              st = writer.write(r);
-              ++summary.status;
-              break;
-            }
-            case protocol::Topic::kStats:
-              break;
-          }
-        }
-        if (const dds_return_t rc = dds_return_loan(readers[i], samples.data(), n); rc < 0)
-          return dds_error("dds_return_loan", rc);
-        if (!st) return st.error();
-        if (n < static_cast<dds_return_t>(kBatch)) break;
-      }
+      Status st;
+      dds_return_t loan_rc = 0;
+      const dds_return_t n = protocol::take_all(
+          readers[i],
+          [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+            const double t = seconds();
+            for (std::size_t k = 0; k < samples.size() && st; ++k)
+              st = write_sample(writer, summary, topics[i], samples[k], infos[k], t);
+            return static_cast<bool>(st);
+          },
+          [&](dds_return_t rc) {
+            loan_rc = rc;
+            return rc >= 0;
+          });
+      if (n < 0) return dds_error("dds_take", n);
+      if (loan_rc < 0) return dds_error("dds_return_loan", loan_rc);
+      if (!st) return st.error();
     }
     if (Status st = writer.flush(); !st) return st.error();
   }

@@ -42,6 +42,21 @@ std::uint64_t next_answer_id() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
+/// A rejected answer (docs/PROTOCOL.md, ContactForces): status `code` for the object's
+/// `topology_version` (the version the scene holds, 0: none), state_frame = the frame,
+/// answer_id 0, no arrays.
+ForcesMessage rejected_answer(std::string_view scene, std::string_view object, std::int64_t frame,
+                              std::uint32_t topology_version, std::int32_t code) {
+  ForcesMessage f;
+  f.scene = scene;
+  f.object = object;
+  f.frame = frame;
+  f.topology_version = topology_version;
+  f.status = code;
+  f.state_frame = frame;
+  return f;
+}
+
 }  // namespace
 
 SceneRunner::SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
@@ -207,16 +222,9 @@ void SceneRunner::run_frame(FrameJob& job) {
   }
   if (failed) {
     // Every object is answered with the internal error so no client waits in vain.
-    for (const auto& [name, version] : active_) {
-      ForcesMessage f;
-      f.scene = scene_;
-      f.object = name;
-      f.frame = job.frame;
-      f.topology_version = version;
-      f.status = tetcollide_STATUS_INTERNAL;
-      f.state_frame = job.frame;
-      outbox_.publish_forces(f);  // rejected: answer_id 0 (docs/PROTOCOL.md)
-    }
+    for (const auto& [name, version] : active_)
+      outbox_.publish_forces(
+          rejected_answer(scene_, name, job.frame, version, tetcollide_STATUS_INTERNAL));
   } else {
     // The positions each object now holds in the pipeline came from these states.
     for (std::size_t i = 0; i < job.states.size() && i < job.state_frames.size(); ++i) {
@@ -324,14 +332,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
   // object (none: 0), answer_id 0.
   const auto answer_unheld = [&](const std::string& name, std::int32_t code) {
     if (active_.count(name) != 0) return;
-    ForcesMessage m;
-    m.scene = scene_;
-    m.object = name;
-    m.frame = job.frame;
-    m.topology_version = 0;
-    m.status = code;
-    m.state_frame = job.frame;
-    outbox_.publish_forces(m);
+    outbox_.publish_forces(rejected_answer(scene_, name, job.frame, 0, code));
   };
   for (const auto& r : job.rejected) answer_unheld(r.object, r.code);
   for (const auto& e : output.errors) {

@@ -7,6 +7,7 @@
 #include <array>
 #include <atomic>
 #include <mutex>
+#include <span>
 #include <vector>
 
 #include "dds_outbox.hpp"
@@ -15,14 +16,19 @@
 #include "samples.hpp"
 #include "scheduler.hpp"
 #include "systemd_notify.hpp"
+#include "take_all.hpp"
 
 namespace tc::daemon {
 namespace {
 
-constexpr std::uint32_t kTakeBatch = 64;
-
 Error dds_failure(const std::string& call, dds_return_t rc) {
   return Error{ErrorCode::kIo, call + ": " + protocol::dds_error(rc)};
+}
+
+/// Logs a failed dds_return_loan and goes on taking.
+bool log_loan_failure(const char* topic, dds_return_t rc) {
+  if (rc < 0) spdlog::error("dds_return_loan({}): {}", topic, protocol::dds_error(rc));
+  return true;
 }
 
 }  // namespace
@@ -97,62 +103,50 @@ struct Service::Impl {
 
   /// Takes every available topology sample. Returns false on a DDS error.
   bool take_topologies(Clock::time_point now) {
-    std::array<void*, kTakeBatch> samples{};
-    std::array<dds_sample_info_t, kTakeBatch> infos{};
-    for (;;) {
-      samples.fill(nullptr);
-      const dds_return_t n =
-          dds_take(topology_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
-      if (n < 0) {
-        spdlog::error("dds_take(MeshTopology): {}", protocol::dds_error(n));
-        return false;
-      }
-      for (dds_return_t i = 0; i < n; ++i) {
-        const auto* s = static_cast<const tetcollide_MeshTopology*>(samples[i]);
-        const dds_sample_info_t& info = infos[i];
-        if (info.valid_data) {
-          try {
-            TopologyView view = view_of(*s);
-            view.source_timestamp = info.source_timestamp;
-            router->on_topology(view, now);
-          } catch (const std::exception& e) {  // allocation failure on a huge mesh
-            spdlog::error("{}/{}: topology not processed: {}", protocol::bounded_view(s->scene),
-                          protocol::bounded_view(s->object), e.what());
+    const dds_return_t n = protocol::take_all(
+        topology_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            const auto* s = static_cast<const tetcollide_MeshTopology*>(samples[i]);
+            const dds_sample_info_t& info = infos[i];
+            if (info.valid_data) {
+              try {
+                TopologyView view = view_of(*s);
+                view.source_timestamp = info.source_timestamp;
+                router->on_topology(view, now);
+              } catch (const std::exception& e) {  // allocation failure on a huge mesh
+                spdlog::error("{}/{}: topology not processed: {}", protocol::bounded_view(s->scene),
+                              protocol::bounded_view(s->object), e.what());
+              }
+            }
+            if (info.instance_state != DDS_IST_ALIVE)
+              router->on_topology_gone(protocol::bounded_view(s->scene),
+                                       protocol::bounded_view(s->object));
           }
-        }
-        if (info.instance_state != DDS_IST_ALIVE)
-          router->on_topology_gone(protocol::bounded_view(s->scene),
-                                   protocol::bounded_view(s->object));
-      }
-      if (const dds_return_t rc = dds_return_loan(topology_reader, samples.data(), n); rc < 0)
-        spdlog::error("dds_return_loan(MeshTopology): {}", protocol::dds_error(rc));
-      if (n < static_cast<dds_return_t>(kTakeBatch)) return true;
-    }
+          return true;
+        },
+        [](dds_return_t rc) { return log_loan_failure("MeshTopology", rc); });
+    if (n < 0) spdlog::error("dds_take(MeshTopology): {}", protocol::dds_error(n));
+    return n >= 0;
   }
 
   bool take_states(Clock::time_point now) {
-    std::array<void*, kTakeBatch> samples{};
-    std::array<dds_sample_info_t, kTakeBatch> infos{};
-    for (;;) {
-      samples.fill(nullptr);
-      const dds_return_t n =
-          dds_take(state_reader, samples.data(), infos.data(), kTakeBatch, kTakeBatch);
-      if (n < 0) {
-        spdlog::error("dds_take(MeshState): {}", protocol::dds_error(n));
-        return false;
-      }
-      for (dds_return_t i = 0; i < n; ++i) {
-        if (!infos[i].valid_data) continue;
-        try {
-          router->on_state(view_of(*static_cast<const tetcollide_MeshState*>(samples[i])), now);
-        } catch (const std::exception& e) {
-          spdlog::error("state not processed: {}", e.what());
-        }
-      }
-      if (const dds_return_t rc = dds_return_loan(state_reader, samples.data(), n); rc < 0)
-        spdlog::error("dds_return_loan(MeshState): {}", protocol::dds_error(rc));
-      if (n < static_cast<dds_return_t>(kTakeBatch)) return true;
-    }
+    const dds_return_t n = protocol::take_all(
+        state_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            if (!infos[i].valid_data) continue;
+            try {
+              router->on_state(view_of(*static_cast<const tetcollide_MeshState*>(samples[i])), now);
+            } catch (const std::exception& e) {
+              spdlog::error("state not processed: {}", e.what());
+            }
+          }
+          return true;
+        },
+        [](dds_return_t rc) { return log_loan_failure("MeshState", rc); });
+    if (n < 0) spdlog::error("dds_take(MeshState): {}", protocol::dds_error(n));
+    return n >= 0;
   }
 };
 
