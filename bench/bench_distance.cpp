@@ -1,4 +1,4 @@
-// Depth maps (service/core/distance): per-frame time of CPFM (each queue), CFFM (each
+// Depth maps (service/core/depth): per-frame time of CPFM (each queue), CFFM (each
 // variant), the exact reference (one thread and all), the lazy update on a shallow
 // contact, and the grid fast marching baseline, on
 //  - box37: a structured 37^3-cell box (303,918 tets, 54,872 nodes) with interior
@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "core/distance/depth_solver.hpp"
-#include "core/distance/grid_fast_marching.hpp"
+#include "core/depth/depth_solver.hpp"
+#include "core/depth/grid_fast_marching.hpp"
 #include "core/io/mesh_io.hpp"
 #include "test_meshes.hpp"
 

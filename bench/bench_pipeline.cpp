@@ -1,4 +1,4 @@
-// Whole pipeline (service/core/scene): what the service runs, without DDS.
+// Whole pipeline (service/core/pipeline): what the service runs, without DDS.
 //
 //   TorusInBox/<threads>/<depth_um>   Pipeline::run_frame of the service's scene
 //       (bench/service_latency): data/meshes/box.msh static, data/meshes/torus.msh
@@ -20,7 +20,7 @@
 
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {

@@ -18,7 +18,7 @@
 #include "core/detect/detect.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 #include "svg_plot.hpp"
 
 namespace tc::cli {

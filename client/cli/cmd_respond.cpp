@@ -17,7 +17,7 @@
 
 #include "cli_common.hpp"
 #include "core/io/surface_io.hpp"
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 
 namespace tc::cli {
 namespace {

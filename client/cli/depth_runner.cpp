@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "cli_common.hpp"
-#include "core/distance/boundary_surface.hpp"
-#include "core/distance/grid_fast_marching.hpp"
+#include "core/depth/boundary_surface.hpp"
+#include "core/depth/grid_fast_marching.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 

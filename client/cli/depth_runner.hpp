@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/tet_mesh.hpp"
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 
 namespace tc::sim {
 namespace {

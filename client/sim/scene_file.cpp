@@ -12,7 +12,7 @@
 #include <set>
 #include <sstream>
 
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/response/penalty.hpp"
 

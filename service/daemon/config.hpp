@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 
 namespace tc::daemon {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/mesh/tet_mesh.hpp"
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 
 namespace tc::daemon {
 

@@ -13,7 +13,7 @@
 #include "config.hpp"
 #include "core/common/result.hpp"
 #include "core/mesh/tet_mesh.hpp"
-#include "core/scene/scene.hpp"
+#include "core/pipeline/scene.hpp"
 #include "tetcollide.h"
 
 namespace tc::daemon {

@@ -12,7 +12,7 @@
 #include <variant>
 #include <vector>
 
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 #include "frame_assembler.hpp"
 #include "outbox.hpp"
 

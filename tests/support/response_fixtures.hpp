@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/depth/depth_solver.hpp"
 #include "core/detect/contacts.hpp"
-#include "core/distance/depth_solver.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"

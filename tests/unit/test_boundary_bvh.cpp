@@ -1,14 +1,14 @@
-// service/core/distance/boundary_bvh: nearest feature == brute force over all features
+// service/core/depth/boundary_bvh: nearest feature == brute force over all features
 // (2D and 3D, points inside, outside and on the surface), bounds, range queries.
-#include "core/distance/boundary_bvh.hpp"
+#include "core/depth/boundary_bvh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 #include <set>
 
-#include "core/distance/boundary_surface.hpp"
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/boundary_surface.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {

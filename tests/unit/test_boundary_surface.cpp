@@ -1,6 +1,6 @@
-// service/core/distance/boundary_surface: surface adjacency of tet meshes and the 2D
+// service/core/depth/boundary_surface: surface adjacency of tet meshes and the 2D
 // topology, counted by hand and checked against brute force.
-#include "core/distance/boundary_surface.hpp"
+#include "core/depth/boundary_surface.hpp"
 
 #include <gtest/gtest.h>
 

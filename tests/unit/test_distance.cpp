@@ -1,7 +1,7 @@
-// Depth maps (service/core/distance/depth_solver): analytic cases, the ordering
+// Depth maps (service/core/depth/depth_solver): analytic cases, the ordering
 // exact <= CFFM, CPFM, lazy == full, components, orphans, degenerate tets, determinism
 // across runs and TBB thread counts, robustness, and the 2D case.
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -14,7 +14,7 @@
 #include <set>
 #include <string>
 
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/geometry.hpp"
 #include "sanitizer.hpp"

@@ -1,14 +1,14 @@
-// service/core/distance/grid_fast_marching: exact seeds in the band, convergence with
+// service/core/depth/grid_fast_marching: exact seeds in the band, convergence with
 // the resolution in 2D and 3D, axis-aligned fields, degenerate input.
-#include "core/distance/grid_fast_marching.hpp"
+#include "core/depth/grid_fast_marching.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/distance/boundary_surface.hpp"
-#include "core/distance/depth_solver.hpp"
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/boundary_surface.hpp"
+#include "core/depth/depth_solver.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {

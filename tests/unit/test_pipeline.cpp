@@ -1,5 +1,5 @@
-// service/core/scene/pipeline: one scene's frame from states to forces.
-#include "core/scene/pipeline.hpp"
+// service/core/pipeline/pipeline: one scene's frame from states to forces.
+#include "core/pipeline/pipeline.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

@@ -1,7 +1,7 @@
-// service/core/distance/point_simplex_distance: closest points on segments and
+// service/core/depth/point_simplex_distance: closest points on segments and
 // triangles against dense sampling, known answers, locations, degenerate features,
 // float against double.
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // The paper's 2D test case (its Figs. 8-10): triangle meshes in the plane, read by the
-// Gmsh reader (core/io/mesh_io.hpp) and marched by the 2D depth maps (core/distance).
+// Gmsh reader (core/io/mesh_io.hpp) and marched by the 2D depth maps (core/depth).
 // Not to be confused with SurfaceMesh (core/mesh/surface_mesh.hpp), a triangle surface
 // in 3D.
 #pragma once

@@ -5,7 +5,7 @@
 #include <limits>
 #include <vector>
 
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/response/tet_frame.hpp"
 

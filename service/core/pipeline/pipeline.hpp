@@ -14,12 +14,12 @@
 #include <vector>
 
 #include "core/common/result.hpp"
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 #include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "core/pipeline/scene.hpp"
 #include "core/response/penalty.hpp"
 #include "core/response/response.hpp"
-#include "core/scene/scene.hpp"
 
 namespace tc {
 

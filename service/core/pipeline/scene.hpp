@@ -1,10 +1,10 @@
 // What an object of a scene is registered with: its contact parameters, which pick the
-// depth map (core/distance) and the response (core/response) of its pairs. The daemon
+// depth map (core/depth) and the response (core/response) of its pairs. The daemon
 // maps the DDS samples' parameters to these; the CLI and the tests build them directly.
 // The per-frame output (ObjectForces) is the response's type (core/response/response.hpp).
 #pragma once
 
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 #include "core/response/penalty.hpp"
 
 namespace tc {

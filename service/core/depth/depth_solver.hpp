@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
-#include "core/distance/boundary_surface.hpp"
+#include "core/depth/boundary_surface.hpp"
 #include "core/mesh/mesh2d.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"

@@ -1,4 +1,4 @@
-#include "core/distance/grid_fast_marching.hpp"
+#include "core/depth/grid_fast_marching.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <limits>
 #include <string>
 
-#include "core/distance/boundary_surface.hpp"
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/boundary_surface.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 
 namespace tc {
 namespace {

@@ -9,7 +9,7 @@
 //  - the default queue is a FIFO bucket queue, whose pop order follows push order;
 //  - final depths are recomputed in double from the original positions after the
 //    march: a CPFM/CFFM depth is exactly the distance to a true boundary point.
-#include "core/distance/depth_solver.hpp"
+#include "core/depth/depth_solver.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -23,9 +23,9 @@
 #include <utility>
 #include <variant>
 
-#include "core/distance/boundary_bvh.hpp"
-#include "core/distance/point_simplex_distance.hpp"
-#include "core/distance/priority_queues.hpp"
+#include "core/depth/boundary_bvh.hpp"
+#include "core/depth/point_simplex_distance.hpp"
+#include "core/depth/priority_queues.hpp"
 
 namespace tc {
 namespace {

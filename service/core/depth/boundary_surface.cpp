@@ -1,4 +1,4 @@
-#include "core/distance/boundary_surface.hpp"
+#include "core/depth/boundary_surface.hpp"
 
 #include <algorithm>
 #include <numeric>

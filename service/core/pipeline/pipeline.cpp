@@ -1,4 +1,4 @@
-#include "core/scene/pipeline.hpp"
+#include "core/pipeline/pipeline.hpp"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -11,10 +11,10 @@
 #include <stdexcept>
 
 #include "core/common/log.hpp"
+#include "core/depth/boundary_bvh.hpp"
+#include "core/depth/depth_solver.hpp"
 #include "core/detect/detect.hpp"
 #include "core/detect/surface_detect.hpp"
-#include "core/distance/boundary_bvh.hpp"
-#include "core/distance/depth_solver.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 #include "core/response/response.hpp"

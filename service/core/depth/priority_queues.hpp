@@ -1,4 +1,4 @@
-// Priority queues for the Dijkstra-like marches (internal to core/distance; measured
+// Priority queues for the Dijkstra-like marches (internal to core/depth; measured
 // against each other in docs/DEPTH_MAPS.md).
 //
 // Interface: clear(); start(first) with the entries of the first layer (pushed while

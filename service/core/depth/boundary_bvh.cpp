@@ -1,9 +1,9 @@
-#include "core/distance/boundary_bvh.hpp"
+#include "core/depth/boundary_bvh.hpp"
 
 #include <algorithm>
 #include <numeric>
 
-#include "core/distance/point_simplex_distance.hpp"
+#include "core/depth/point_simplex_distance.hpp"
 
 namespace tc {
 namespace {
