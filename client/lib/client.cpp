@@ -164,7 +164,7 @@ struct Client::Impl {
     Mesh mesh;
     ObjectParams params;
     std::uint32_t version = 0;
-    Clock::time_point written{};
+    Clock::time_point last_write{};  ///< of this topology, for kRewriteInterval
   };
   std::mutex topology_mutex;  // serialises topology writes; guards `topologies`
   std::map<std::string, Topology> topologies;
@@ -272,8 +272,8 @@ struct Client::Impl {
       if (it == topologies.end()) continue;  // removed meanwhile
       Topology& t = it->second;
       const auto now = Clock::now();
-      if (now - t.written < kRewriteInterval) continue;
-      t.written = now;
+      if (now - t.last_write < kRewriteInterval) continue;
+      t.last_write = now;
       write_topology(object, t);
     }
   }
@@ -611,7 +611,7 @@ std::uint32_t Client::register_object(const std::string& object, const Mesh& mes
   t.mesh = mesh;
   t.params = params;
   t.version = v;
-  t.written = Clock::now();
+  t.last_write = Clock::now();
   m.write_topology(object, t);
   return v;
 }

@@ -304,6 +304,7 @@ Status check_config(const DaemonConfig& c) {
 
 std::int32_t scene_strength(const std::vector<std::pair<std::string, std::int32_t>>& shards,
                             std::int32_t fallback, std::string_view scene) {
+  if (shards.empty()) return fallback;  // every answer comes here: no string without shards
   const std::string name(scene);
   for (const auto& [pattern, strength] : shards)
     if (fnmatch(pattern.c_str(), name.c_str(), 0) == 0) return strength;

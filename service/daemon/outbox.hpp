@@ -34,6 +34,21 @@ struct ForcesMessage {
   std::span<const std::string> left_out;
 };
 
+/// A rejected answer (docs/PROTOCOL.md, ContactForces): `code` for the object's state of
+/// `frame`, the version the service holds for it (0: none), answer_id 0, no arrays.
+inline ForcesMessage rejected_answer(std::string_view scene, std::string_view object,
+                                     std::int64_t frame, std::uint32_t topology_version,
+                                     std::int32_t code) {
+  ForcesMessage f;
+  f.scene = scene;
+  f.object = object;
+  f.frame = frame;
+  f.topology_version = topology_version;
+  f.status = code;
+  f.state_frame = frame;
+  return f;
+}
+
 /// One scene's frame timings and counts (FrameStats topic).
 struct StatsMessage {
   std::string_view scene;

@@ -110,18 +110,10 @@ void Router::report(std::int32_t code, std::string_view scene, std::string_view 
 
 void Router::answer_now(std::string_view scene, std::string_view object, std::int64_t frame,
                         std::int32_t code) {
-  // Like every rejected answer (docs/PROTOCOL.md, ContactForces): topology_version is the
-  // version the service holds for the object (0: none), answer_id 0, no arrays.
   const SceneRegistry* reg = registry(scene);
   const VersionInfo* current = reg == nullptr ? nullptr : reg->current(object);
-  ForcesMessage f;
-  f.scene = scene;
-  f.object = object;
-  f.frame = frame;
-  f.topology_version = current == nullptr ? 0 : current->version;
-  f.status = code;
-  f.state_frame = frame;
-  outbox_.publish_forces(f);
+  outbox_.publish_forces(
+      rejected_answer(scene, object, frame, current == nullptr ? 0 : current->version, code));
 }
 
 void Router::on_topology(const TopologyView& t, Clock::time_point now) {

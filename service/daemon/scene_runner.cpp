@@ -42,21 +42,6 @@ std::uint64_t next_answer_id() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-/// A rejected answer (docs/PROTOCOL.md, ContactForces): status `code` for the object's
-/// `topology_version` (the version the scene holds, 0: none), state_frame = the frame,
-/// answer_id 0, no arrays.
-ForcesMessage rejected_answer(std::string_view scene, std::string_view object, std::int64_t frame,
-                              std::uint32_t topology_version, std::int32_t code) {
-  ForcesMessage f;
-  f.scene = scene;
-  f.object = object;
-  f.frame = frame;
-  f.topology_version = topology_version;
-  f.status = code;
-  f.state_frame = frame;
-  return f;
-}
-
 }  // namespace
 
 SceneRunner::SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
