@@ -848,6 +848,33 @@ TEST_F(VtuTest, RoundTripOfPointsCellsAndFields) {
   EXPECT_EQ(quality->values, cells[0].values);
 }
 
+TEST_F(VtuTest, TrianglesFollowTheTetsInAMixedGrid) {
+  // Two tets (5 nodes) and a triangle surface of 3 more nodes in one grid, as the demo
+  // writes a tet object beside a shell.
+  TetMesh mesh = test::two_tets_sharing_face();
+  mesh.positions.conservativeResize(3, 8);
+  mesh.positions.rightCols<3>() << 2, 3, 2, 0, 0, 1, 5, 5, 5;
+  for (std::int64_t id = 6; id <= 8; ++id) mesh.node_ids.push_back(id);
+  const std::vector<std::array<Index, 3>> triangles{{5, 6, 7}};
+  const std::vector<VtuField> cells{{"object", 1, {0.0, 0.0, 1.0}}};
+  ASSERT_TRUE(write_vtu(path_, mesh, triangles, {}, cells).ok());
+  const VtuDocument doc = parse_vtu(slurp(path_));
+  EXPECT_EQ(doc.piece.at("NumberOfCells"), "3");
+  const VtuArray* conn = find_array(doc, "Cells", "connectivity");
+  const VtuArray* offsets = find_array(doc, "Cells", "offsets");
+  const VtuArray* types = find_array(doc, "Cells", "types");
+  ASSERT_TRUE(conn && offsets && types);
+  EXPECT_EQ(offsets->values, (std::vector<double>{4, 8, 11}));
+  EXPECT_EQ(types->values, (std::vector<double>{10, 10, 5}));  // VTK_TETRA, VTK_TRIANGLE
+  EXPECT_EQ(std::vector<double>(conn->values.end() - 3, conn->values.end()),
+            (std::vector<double>{5, 6, 7}));
+  // A triangle naming a node outside the grid is refused, as a tet is.
+  const Status bad =
+      write_vtu(path_, mesh, std::vector<std::array<Index, 3>>{{5, 6, 8}}, {}, cells);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.error().message, HasSubstr("triangle 0 refers to node 8, outside [0, 8)"));
+}
+
 TEST_F(VtuTest, EmptyMeshIsAValidFile) {
   const VtuDocument doc = parse_vtu(write(TetMesh{}, {}, {}));
   EXPECT_EQ(doc.piece.at("NumberOfPoints"), "0");

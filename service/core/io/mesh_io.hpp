@@ -85,5 +85,10 @@ struct VtuField {
 Status write_vtu(const std::filesystem::path& path, const TetMesh& mesh,
                  std::span<const VtuField> point_fields = {},
                  std::span<const VtuField> cell_fields = {});
+/// The same with triangles (VTK_TRIANGLE cells, after the tets) for the surface objects
+/// of a mixed grid; cell fields then hold tets + triangles values.
+Status write_vtu(const std::filesystem::path& path, const TetMesh& mesh,
+                 std::span<const std::array<Index, 3>> triangles,
+                 std::span<const VtuField> point_fields, std::span<const VtuField> cell_fields);
 
 }  // namespace tc

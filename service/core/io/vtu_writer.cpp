@@ -1,7 +1,8 @@
 // VTK XML UnstructuredGrid writer (.vtu, ASCII), as specified in "VTK File Formats"
 // (XML formats): <VTKFile type="UnstructuredGrid"> / <UnstructuredGrid> / one <Piece>
 // with <PointData>, <CellData>, <Points> (Float64 x 3) and <Cells> (connectivity and
-// offsets as Int64, types as UInt8; 10 = VTK_TETRA). Offsets are the end position of
+// offsets as Int64, types as UInt8; 10 = VTK_TETRA, 5 = VTK_TRIANGLE after the tets for the
+// surface objects of a mixed grid). Offsets are the end position of
 // each cell in the connectivity array (4, 8, 12, ...). Numbers use the shortest form
 // that reads back to the same double, so a file round-trips exactly.
 #include <charconv>
@@ -17,6 +18,7 @@ namespace tc {
 namespace {
 
 constexpr int kVtkTetra = 10;
+constexpr int kVtkTriangle = 5;
 
 void append_number(std::string& s, double v) {
   char buf[32];
@@ -96,10 +98,13 @@ void append_fields(std::string& s, std::span<const VtuField> fields) {
   }
 }
 
-Expected<std::string> format_vtu(const TetMesh& mesh, std::span<const VtuField> point_fields,
+Expected<std::string> format_vtu(const TetMesh& mesh,
+                                 std::span<const std::array<Index, 3>> triangles,
+                                 std::span<const VtuField> point_fields,
                                  std::span<const VtuField> cell_fields) {
   const auto n = static_cast<std::size_t>(mesh.positions.cols());
-  const std::size_t m = mesh.tets.size();
+  const std::size_t tets = mesh.tets.size();
+  const std::size_t m = tets + triangles.size();
   if (mesh.node_ids.size() != n)
     return Error{ErrorCode::kInvalidArgument, "mesh has " + std::to_string(mesh.node_ids.size()) +
                                                   " node ids for " + std::to_string(n) + " nodes"};
@@ -107,12 +112,18 @@ Expected<std::string> format_vtu(const TetMesh& mesh, std::span<const VtuField> 
     if (!mesh.positions.col(static_cast<Eigen::Index>(i)).allFinite())
       return Error{ErrorCode::kInvalidArgument,
                    "node " + std::to_string(i) + " has a non-finite coordinate"};
-  for (std::size_t t = 0; t < m; ++t)
+  for (std::size_t t = 0; t < tets; ++t)
     for (const Index v : mesh.tets[t])
       if (v < 0 || static_cast<std::size_t>(v) >= n)
         return Error{ErrorCode::kInvalidArgument, "tet " + std::to_string(t) + " refers to node " +
                                                       std::to_string(v) + ", outside [0, " +
                                                       std::to_string(n) + ")"};
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    for (const Index v : triangles[t])
+      if (v < 0 || static_cast<std::size_t>(v) >= n)
+        return Error{ErrorCode::kInvalidArgument, "triangle " + std::to_string(t) +
+                                                      " refers to node " + std::to_string(v) +
+                                                      ", outside [0, " + std::to_string(n) + ")"};
   std::set<std::string> point_names = {"node_id"};
   if (Status st = check_fields(point_fields, n, "point", point_names); !st) return st.error();
   std::set<std::string> cell_names;
@@ -150,15 +161,20 @@ Expected<std::string> format_vtu(const TetMesh& mesh, std::span<const VtuField> 
   ints.reserve(4 * m);
   for (const Tet& t : mesh.tets)
     for (const Index v : t) ints.push_back(v);
+  for (const auto& t : triangles)
+    for (const Index v : t) ints.push_back(v);
   append_values(s, ints, 8);
   close_array(s);
   open_array(s, "Int64", "offsets", 1);
   ints.clear();
-  for (std::size_t t = 0; t < m; ++t) ints.push_back(static_cast<std::int64_t>(4 * (t + 1)));
+  for (std::size_t t = 0; t < tets; ++t) ints.push_back(static_cast<std::int64_t>(4 * (t + 1)));
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    ints.push_back(static_cast<std::int64_t>(4 * tets + 3 * (t + 1)));
   append_values(s, ints, 8);
   close_array(s);
   open_array(s, "UInt8", "types", 1);
-  ints.assign(m, kVtkTetra);
+  ints.assign(tets, kVtkTetra);
+  ints.insert(ints.end(), triangles.size(), kVtkTriangle);
   append_values(s, ints, 16);
   close_array(s);
   s += "      </Cells>\n";
@@ -173,7 +189,13 @@ Expected<std::string> format_vtu(const TetMesh& mesh, std::span<const VtuField> 
 
 Status write_vtu(const std::filesystem::path& path, const TetMesh& mesh,
                  std::span<const VtuField> point_fields, std::span<const VtuField> cell_fields) {
-  auto text = format_vtu(mesh, point_fields, cell_fields);
+  return write_vtu(path, mesh, {}, point_fields, cell_fields);
+}
+
+Status write_vtu(const std::filesystem::path& path, const TetMesh& mesh,
+                 std::span<const std::array<Index, 3>> triangles,
+                 std::span<const VtuField> point_fields, std::span<const VtuField> cell_fields) {
+  auto text = format_vtu(mesh, triangles, point_fields, cell_fields);
   if (!text) return Error{text.error().code, path.string() + ": " + text.error().message};
   return io_detail::write_whole_file(path, *text);
 }
