@@ -98,6 +98,20 @@ client::Mesh to_client_mesh(const TetMesh& m) {
   return out;
 }
 
+/// A scene object's topology for the service: its tets, or a shell's triangles (a surface
+/// object, docs/SURFACES.md).
+client::Mesh to_client_mesh(const sim::SimObject& o) {
+  const SurfaceMesh* s = o.surface();
+  if (s == nullptr) return to_client_mesh(o.mesh());
+  client::Mesh out;
+  out.node_ids = s->node_ids;
+  out.rest_positions.assign(s->positions.data(), s->positions.data() + s->positions.size());
+  out.triangles.reserve(s->triangles.size() * 3);
+  for (const Triangle& t : s->triangles)
+    out.triangles.insert(out.triangles.end(), t.begin(), t.end());
+  return out;
+}
+
 /// The collision service of sim::SceneRun over DDS: one publish / wait_forces round trip
 /// per frame; FrameStats and round-trip times are kept for the outputs.
 class DdsContactService final : public sim::ContactService {
@@ -149,17 +163,29 @@ class DdsContactService final : public sim::ContactService {
   std::map<std::string, client::ObjectParams> params_;
 };
 
-std::vector<std::array<std::int32_t, 3>> boundary_of(const TetMesh& mesh) {
-  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+/// What the pictures draw of an object: a tet object's boundary faces, a shell's triangles.
+std::vector<std::array<std::int32_t, 3>> boundary_of(const sim::SimObject& o) {
+  if (const SurfaceMesh* s = o.surface(); s != nullptr) {
+    std::vector<std::array<std::int32_t, 3>> out;
+    out.reserve(s->triangles.size());
+    for (const Triangle& t : s->triangles)
+      out.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                     static_cast<std::int32_t>(t[2])});
+    return out;
+  }
+  const Topology topo = build_topology(o.mesh().tets, o.mesh().num_nodes());
   return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
 }
 
 /// Writes frame `f` of every object into one unstructured grid `out/frame_NNNN.vtu`: point
-/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object.
+/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object. The
+/// tets of every tet object come first, then the triangles of the shells.
 Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
                        const std::vector<std::vector<double>>& depth,
                        const std::filesystem::path& out, int f) {
   TetMesh all;
+  std::vector<std::array<Index, 3>> triangles;
+  std::vector<double> triangle_object;
   Index total = 0;
   std::size_t tets = 0;
   for (const auto& e : objects) {
@@ -190,13 +216,20 @@ Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
       all.tets.push_back(t);
       fo.values.push_back(static_cast<double>(i));
     }
+    if (const SurfaceMesh* s = e.surface(); s != nullptr)
+      for (Triangle t : s->triangles) {
+        for (auto& n : t) n += base;
+        triangles.push_back(t);
+        triangle_object.push_back(static_cast<double>(i));
+      }
     base += static_cast<Index>(x.cols());
   }
+  fo.values.insert(fo.values.end(), triangle_object.begin(), triangle_object.end());
   char name[32];
   std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
   const std::vector<VtuField> point{fd, ff, fv};
   const std::vector<VtuField> cell{fo};
-  return write_vtu(out / name, all, point, cell);
+  return write_vtu(out / name, all, triangles, point, cell);
 }
 
 /// Draws the scene's objects at their current positions into `path`.
@@ -409,6 +442,7 @@ nlohmann::json summary_json(const RunReport& r) {
       {"final_penetration_m", books.last_penetration},
       {"service_max_depth_m", t.service_max_depth},
       {"max_contacts", t.max_contacts},
+      {"peak_contact_force_n", books.peak_contact_force},
       {"energy_j",
        {{"initial", books.energy_initial},
         {"max", books.energy_max},
@@ -497,7 +531,7 @@ int run_demo(const DemoArgs& args) {
     return report_error(Error{ErrorCode::kIo, "scene '" + args.scene +
                                                   "' not found (a file, or a name in "
                                                   "config/scenes: torus_on_box, ellipsoid_rain, "
-                                                  "tissue_tear)"});
+                                                  "tissue_tear, sphere_on_tissue)"});
   }
   if (!spec) return report_error(spec.error());
   sim::SceneSpec& scene = *spec;
@@ -521,7 +555,7 @@ int run_demo(const DemoArgs& args) {
   const auto& objects = run.objects();
   // Boundary faces of each object, for the pictures (recomputed after a cut).
   std::vector<std::vector<std::array<std::int32_t, 3>>> surface;
-  for (const auto& o : objects) surface.push_back(boundary_of(o.mesh()));
+  for (const auto& o : objects) surface.push_back(boundary_of(o));
   const bool implicit = scene.integrator == "implicit";
   if (!implicit) {
     double stable = std::numeric_limits<double>::infinity();
@@ -595,7 +629,7 @@ int run_demo(const DemoArgs& args) {
   DdsContactService service(*c);
   for (const auto& o : objects) {
     service.set_params(o.spec.name, to_params(o.spec));
-    c->register_object(o.spec.name, to_client_mesh(o.mesh()), to_params(o.spec));
+    c->register_object(o.spec.name, to_client_mesh(o), to_params(o.spec));
   }
   for (const auto& o : objects) {
     const auto r = c->wait_registered(o.spec.name, 20s);
@@ -674,7 +708,7 @@ int run_demo(const DemoArgs& args) {
     // ---- integrate, tear (a new topology version; the states go on with it) ----
     auto cut = run.advance(service, f);
     if (!cut) return report_error(cut.error().message, kExitFailure);
-    for (const std::size_t i : *cut) surface[i] = boundary_of(objects[i].mesh());
+    for (const std::size_t i : *cut) surface[i] = boundary_of(objects[i]);
     if (recording && f == args.record_to) {
       const auto until = Clock::now() + 20s;
       while (recorded_answers(args.record, f) < objects.size() && Clock::now() < until)
@@ -736,7 +770,8 @@ void add_demo_command(CLI::App& app, Context& ctx) {
   CLI::App* cmd = app.add_subcommand(
       "demo", "Run a demo scene (simulator client) against tetcollided over DDS");
   cmd->add_option("scene", args->scene,
-                  "Scene name (config/scenes: torus_on_box, ellipsoid_rain, tissue_tear) or a "
+                  "Scene name (config/scenes: torus_on_box, ellipsoid_rain, tissue_tear, "
+                  "sphere_on_tissue) or a "
                   "scene file")
       ->required();
   cmd->add_option("--frames", args->frames, "Frames to simulate (default: the scene's)")

@@ -87,7 +87,7 @@ std::vector<std::vector<double>> PenetrationProbe::measure(
       for (Eigen::Index n = 0; n < positions[i]->cols(); ++n) boxes[i].grow(positions[i]->col(n));
   }
   for (std::size_t b = 0; b < k; ++b) {
-    if (!objects_[b].ready) continue;
+    if (!objects_[b].ready || objects_[b].tets.empty()) continue;  // a shell holds no one
     bool any = false;
     for (std::size_t a = 0; a < k && !any; ++a) any = a != b && boxes[a].overlaps(boxes[b]);
     if (!any) continue;

@@ -14,6 +14,7 @@
 
 #include "core/depth/depth_solver.hpp"
 #include "core/io/mesh_io.hpp"
+#include "core/io/surface_io.hpp"
 #include "core/response/penalty.hpp"
 
 namespace tc::sim {
@@ -102,7 +103,7 @@ class Parser {
   ObjectSpec object(const YAML::Node& n, bool in_rain) const {
     check_keys(n,
                {"name", "mesh", "static", "translate", "rotate_deg", "scale", "velocity",
-                "material", "contact", "fix_border", "tear_strain", "color"},
+                "material", "shell", "contact", "fix_border", "tear_strain", "color"},
                "object");
     ObjectSpec o;
     o.name = get<std::string>(n, "name", "");
@@ -125,6 +126,19 @@ class Parser {
       o.material.young = number(m, "young", o.material.young, 1.0, 1e12);
       o.material.poisson = number(m, "poisson", o.material.poisson, 0.0, 0.49);
       o.material.damping = number(m, "damping", o.material.damping, 0.0, 1e4);
+    }
+    if (const YAML::Node sh = n["shell"]; sh.IsDefined()) {
+      if (in_rain) fail(sh, "a rain object cannot be a shell");
+      for (const char* k : {"material", "static", "fix_border", "tear_strain"})
+        if (n[k].IsDefined())
+          fail(n[k], "object '" + o.name + "' is a shell: '" + k + "' does not apply to it");
+      check_keys(sh, {"mass", "stretch", "pressure", "damping"}, "shell");
+      ShellMaterial m;
+      m.mass = number(sh, "mass", m.mass, 1e-6, 1e6);
+      m.stretch = number(sh, "stretch", m.stretch, 1e-3, 1e12);
+      m.pressure = number(sh, "pressure", m.pressure, 0.0, 1e9);
+      m.damping = number(sh, "damping", m.damping, 0.0, 1e4);
+      o.shell = m;
     }
     if (const YAML::Node c = n["contact"]; c.IsDefined()) {
       check_keys(c, {"stiffness", "damping", "max_force", "depth", "response"}, "contact");
@@ -292,18 +306,34 @@ Expected<SceneSpec> load_scene_file(const std::filesystem::path& path,
 
 namespace tc::sim {
 
-Expected<TetMesh> load_object_mesh(const ObjectSpec& object) {
-  auto mesh = read_mesh(object.mesh);
-  if (!mesh) return mesh.error();
+namespace {
+
+/// Scales, rotates (x, then y, then z, degrees) and translates positions as the object says.
+void place(const ObjectSpec& object, Eigen::Matrix3Xd& positions) {
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   const Eigen::Matrix3d r =
       (Eigen::AngleAxisd(object.rotate_deg.z() * kDeg, Eigen::Vector3d::UnitZ()) *
        Eigen::AngleAxisd(object.rotate_deg.y() * kDeg, Eigen::Vector3d::UnitY()) *
        Eigen::AngleAxisd(object.rotate_deg.x() * kDeg, Eigen::Vector3d::UnitX()))
           .toRotationMatrix();
-  for (Eigen::Index n = 0; n < mesh->positions.cols(); ++n)
-    mesh->positions.col(n) = r * (object.scale * mesh->positions.col(n)) + object.translate;
+  for (Eigen::Index n = 0; n < positions.cols(); ++n)
+    positions.col(n) = r * (object.scale * positions.col(n)) + object.translate;
+}
+
+}  // namespace
+
+Expected<TetMesh> load_object_mesh(const ObjectSpec& object) {
+  auto mesh = read_mesh(object.mesh);
+  if (!mesh) return mesh.error();
+  place(object, mesh->positions);
   return mesh;
+}
+
+Expected<SurfaceMesh> load_object_surface(const ObjectSpec& object) {
+  auto surface = read_surface(object.mesh);
+  if (!surface) return surface.error();
+  place(object, surface->positions);
+  return surface;
 }
 
 }  // namespace tc::sim

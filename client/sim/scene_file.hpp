@@ -12,6 +12,7 @@
 
 #include "body.hpp"
 #include "core/common/result.hpp"
+#include "shell_body.hpp"
 
 namespace tc::sim {
 
@@ -34,6 +35,9 @@ struct ObjectSpec {
   double scale = 1.0;
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   Material material;
+  /// Set: the object is a triangle-based body (ShellBody, docs/DEMO.md) read from a
+  /// surface file (STL, OBJ, .msh with triangles) and registered as a surface object.
+  std::optional<ShellMaterial> shell;
   ContactSpec contact;
   /// Pin the nodes with |x| >= limit or |y| >= limit at rest (a slab's border); 0 = none.
   double fix_border = 0.0;
@@ -105,5 +109,7 @@ namespace tc::sim {
 /// Reads the object's mesh and places it: scaled, rotated (x, then y, then z, degrees),
 /// translated. kIo / kParse from the reader.
 Expected<TetMesh> load_object_mesh(const ObjectSpec& object);
+/// The same for a shell object's surface (core/io/surface_io.hpp readers).
+Expected<SurfaceMesh> load_object_surface(const ObjectSpec& object);
 
 }  // namespace tc::sim

@@ -41,10 +41,23 @@ Expected<SceneRun> SceneRun::create(const SceneSpec& scene) {
   run.scene_ = scene;
   const bool implicit = scene.integrator == "implicit";
   for (const auto& o : scene.objects) {
-    auto mesh = load_object_mesh(o);
-    if (!mesh) return Error{mesh.error().code, o.name + ": " + mesh.error().message};
     SimObject e;
     e.spec = o;
+    if (o.shell) {
+      auto surface = load_object_surface(o);
+      if (!surface) return Error{surface.error().code, o.name + ": " + surface.error().message};
+      auto shell = ShellBody::create(std::move(*surface), *o.shell);
+      if (!shell) return Error{shell.error().code, o.name + ": " + shell.error().message};
+      Eigen::Matrix3Xd v(3, shell->node_count());
+      v.colwise() = o.velocity;
+      shell->set_velocities(v);
+      e.shell = std::move(*shell);
+      e.contact = Eigen::Matrix3Xd::Zero(3, e.positions().cols());
+      run.objects_.push_back(std::move(e));
+      continue;
+    }
+    auto mesh = load_object_mesh(o);
+    if (!mesh) return Error{mesh.error().code, o.name + ": " + mesh.error().message};
     if (o.is_static) {
       e.fixed = std::move(*mesh);
       e.zero_velocity = Eigen::Matrix3Xd::Zero(3, e.fixed.positions.cols());
@@ -66,7 +79,8 @@ Expected<SceneRun> SceneRun::create(const SceneSpec& scene) {
     run.objects_.push_back(std::move(e));
   }
   for (std::size_t i = 0; i < run.objects_.size(); ++i)
-    run.probe_.set_object(i, run.objects_[i].mesh().tets, run.objects_[i].mesh().num_nodes());
+    run.probe_.set_object(i, run.objects_[i].mesh().tets,
+                          static_cast<Index>(run.objects_[i].positions().cols()));
   run.books_.energy_initial = run.mechanical_energy();
   run.books_.energy_max = run.books_.energy_initial;
   run.books_.energy_final = run.books_.energy_initial;
@@ -75,15 +89,17 @@ Expected<SceneRun> SceneRun::create(const SceneSpec& scene) {
 
 double SceneRun::mechanical_energy() const {
   double e = books_.torn_energy;
-  for (const auto& o : objects_)
+  for (const auto& o : objects_) {
     if (o.body) e += o.body->energy(scene_.gravity).total();
+    if (o.shell) e += o.shell->energy(scene_.gravity).total();
+  }
   return e;
 }
 
 Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe probe) {
   std::vector<StateView> states;
   for (const auto& o : objects_)
-    if (o.body) states.push_back({&o.spec.name, &o.body->positions(), &o.body->velocities()});
+    if (o.moving()) states.push_back({&o.spec.name, &o.positions(), &o.velocities()});
   auto answers = service.exchange(frame, states);
   if (!answers) return answers.error();
   const bool implicit = scene_.integrator == "implicit";
@@ -103,23 +119,25 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
       continue;
     }
     const bool blocks = a.stiffness.size() == 9 * a.nodes.size();
-    if (implicit && o.body && !a.nodes.empty() && !blocks)
+    if ((o.shell || (implicit && o.body)) && !a.nodes.empty() && !blocks)
       return Error{ErrorCode::kInvalidArgument,
                    "the service sent contact forces without stiffness blocks (object '" +
                        o.spec.name + "', frame " + std::to_string(frame) +
                        "); the implicit integrator needs them: run tetcollided with "
                        "'pipeline: {compute_stiffness: true}' in its --config file (as "
                        "--spawn-daemon and scripts/demo.sh do), or use --spawn-daemon"};
-    if (blocks && o.body) o.blocks = Eigen::Matrix3Xd::Zero(3, 3 * n);
+    if (blocks && o.moving()) o.blocks = Eigen::Matrix3Xd::Zero(3, 3 * n);
     for (std::size_t k = 0; k < a.nodes.size(); ++k) {
       const Index i = a.nodes[k];
       if (i < 0 || i >= n) continue;
       o.contact.col(i) = Eigen::Vector3d(a.forces[3 * k], a.forces[3 * k + 1], a.forces[3 * k + 2]);
-      if (blocks && o.body)
+      if (blocks && o.moving())
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) o.blocks(r, 3 * i + c) = a.stiffness[9 * k + 3 * r + c];
     }
     contacts += a.nodes.size();
+    double& peak = books_.peak_contact_force[o.spec.name];
+    peak = std::max(peak, o.contact.rowwise().sum().norm());
   }
   books_.contacts = contacts;
   depth_.clear();
@@ -142,6 +160,16 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
 
 Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, std::int64_t frame) {
   for (auto& o : objects_) {
+    if (o.shell) {
+      const auto report =
+          o.shell->step(scene_.dt, scene_.gravity, o.contact, o.blocks, scene_.newton_iterations);
+      books_.newton_iterations += static_cast<std::size_t>(report.newton_iterations);
+      if (report.linear_solver_failed || report.line_search_failed) ++books_.step_failures;
+      if (!o.shell->positions().allFinite() || !o.shell->velocities().allFinite()) {
+        if (books_.first_non_finite_frame < 0) books_.first_non_finite_frame = frame;
+      }
+      continue;
+    }
     if (!o.body) continue;
     if (o.stepper) {
       const auto report = o.stepper->step(*o.body, scene_.dt, scene_.gravity, o.contact, o.blocks);
@@ -192,11 +220,16 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
   books_.energy_final = e;
   books_.dissipated = 0.0;
   books_.kinetic_final = 0.0;
-  for (const auto& o : objects_)
+  for (const auto& o : objects_) {
     if (o.body) {
       books_.dissipated += o.body->dissipated();
       books_.kinetic_final += o.body->energy(scene_.gravity).kinetic;
     }
+    if (o.shell) {
+      books_.dissipated += o.shell->dissipated();
+      books_.kinetic_final += o.shell->energy(scene_.gravity).kinetic;
+    }
+  }
   books_.kinetic_max = std::max(books_.kinetic_max, books_.kinetic_final);
   ++books_.frames;
   return cut;

@@ -25,6 +25,7 @@
 #include "implicit_step.hpp"
 #include "penetration.hpp"
 #include "scene_file.hpp"
+#include "shell_body.hpp"
 
 namespace tc::sim {
 
@@ -61,20 +62,27 @@ class ContactService {
 /// One object of the running scene.
 struct SimObject {
   ObjectSpec spec;
-  std::optional<Body> body;  ///< moving objects
-  TetMesh fixed;             ///< static objects
+  std::optional<Body> body;        ///< moving tet objects
+  std::optional<ShellBody> shell;  ///< moving triangle-based objects (surface objects)
+  TetMesh fixed;                   ///< static objects (empty for a shell)
   std::optional<ImplicitStepper> stepper;
   Eigen::Matrix3Xd contact;  ///< this frame's forces, 3 x n, newtons
   Eigen::Matrix3Xd blocks;   ///< this frame's df/dx blocks, 3 x 3n (N/m), or empty
   Eigen::Matrix3Xd zero_velocity;
   std::vector<bool> inverted_seen;  ///< per tet: counted in the books already
 
+  [[nodiscard]] bool moving() const { return body || shell; }
   [[nodiscard]] const Eigen::Matrix3Xd& positions() const {
-    return body ? body->positions() : fixed.positions;
+    return body ? body->positions() : shell ? shell->positions() : fixed.positions;
   }
+  /// The tets (rest positions); a shell has none: its triangles are surface().
   [[nodiscard]] const TetMesh& mesh() const { return body ? body->rest_mesh() : fixed; }
+  /// A shell's triangles (rest positions), or nullptr for a tet object.
+  [[nodiscard]] const SurfaceMesh* surface() const {
+    return shell ? &shell->rest_surface() : nullptr;
+  }
   [[nodiscard]] const Eigen::Matrix3Xd& velocities() const {
-    return body ? body->velocities() : zero_velocity;
+    return body ? body->velocities() : shell ? shell->velocities() : zero_velocity;
   }
 };
 
@@ -103,6 +111,10 @@ struct RunBooks {
   double last_penetration = 0.0;  ///< deepest node at the last probed frame
   std::int64_t last_probe_frame = -1;
   std::size_t contacts = 0;  ///< contact nodes of the last frame
+  /// Per object: the largest |sum of its contact forces| over the frames, N. The
+  /// service's forces balance (a tet pair's and a surface pair's), so the two objects of
+  /// a lone contact show the same figure.
+  std::map<std::string, double> peak_contact_force;
   std::size_t newton_iterations = 0;
   /// Implicit steps whose linear solve or line search failed (0 on a healthy run).
   std::size_t step_failures = 0;

@@ -34,7 +34,7 @@ objects:
 
 TEST(SceneFile, CommittedScenesParse) {
   for (const char* name : {"torus_on_box", "torus_on_box_k1e5", "torus_on_box_k1e6",
-                           "ellipsoid_rain", "tissue_tear"}) {
+                           "ellipsoid_rain", "tissue_tear", "sphere_on_tissue"}) {
     SCOPED_TRACE(name);
     const auto s = load_scene_file(kRoot / "config" / "scenes" / (std::string(name) + ".yaml"), {});
     ASSERT_TRUE(s) << s.error().message;
@@ -69,6 +69,31 @@ TEST(SceneFile, DefaultsAndPlacement) {
   EXPECT_NEAR(m->positions.row(1).maxCoeff(), 2.0 + 0.1, 1e-3);
   EXPECT_NEAR(m->positions.row(0).maxCoeff(), 1.0 + 0.06, 5e-3);  // faceted
   EXPECT_NEAR(m->positions.row(2).mean(), 3.0, 0.01);
+}
+
+TEST(SceneFile, ShellObjectsReadASurfaceAndPlaceIt) {
+  const auto s = parse(std::string(kMinimal) +
+                       "  - name: sphere\n    mesh: data/meshes/sphere_shell.obj\n    translate: "
+                       "[0, 0, 1]\n    scale: 0.5\n    velocity: [0, 0, -2]\n    shell: {mass: "
+                       "3, stretch: 5.0e3, pressure: 2.0e4, damping: 0.5}\n");
+  ASSERT_TRUE(s) << s.error().message;
+  const ObjectSpec& o = s->objects[1];
+  ASSERT_TRUE(o.shell.has_value());
+  EXPECT_EQ(o.shell->mass, 3.0);
+  EXPECT_EQ(o.shell->stretch, 5e3);
+  EXPECT_EQ(o.shell->pressure, 2e4);
+  EXPECT_EQ(o.shell->damping, 0.5);
+  EXPECT_FALSE(s->objects[0].shell.has_value());
+  const auto m = load_object_surface(o);
+  ASSERT_TRUE(m) << m.error().message;
+  EXPECT_EQ(m->num_nodes(), 642);
+  EXPECT_NEAR(m->positions.row(2).maxCoeff(), 1.1, 1e-9);  // radius 0.2 halved, moved up
+  // A tet mesh is no shell: the surface reader says what the file holds.
+  auto tets = o;
+  tets.mesh = kRoot / "data/meshes/box.msh";
+  const auto bad = load_object_surface(tets);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("box.msh"), std::string::npos) << bad.error().message;
 }
 
 TEST(SceneFile, RainIsDeterministic) {
@@ -156,7 +181,22 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"repeated object", std::string(kMinimal) + std::string(kMinimal).substr(31),
                 ErrorCode::kInvalidArgument, "repeated"},
         BadCase{"bad depth", std::string(kMinimal) + "    contact: {depth: magic}\n",
-                ErrorCode::kInvalidArgument, "'depth' must be cpfm, cffm or exact"}));
+                ErrorCode::kInvalidArgument, "'depth' must be cpfm, cffm or exact"},
+        BadCase{"static shell", std::string(kMinimal) + "    shell: {mass: 1}\n",
+                ErrorCode::kInvalidArgument,
+                "bad.yaml:6: object 'box' is a shell: 'static' does not apply to it"},
+        BadCase{"shell with a material",
+                "version: 1\nname: x\nobjects:\n  - name: s\n    mesh: "
+                "data/meshes/sphere_shell.obj\n    material: {density: 1}\n    shell: {mass: 1}\n",
+                ErrorCode::kInvalidArgument, "'material' does not apply to it"},
+        BadCase{"shell key",
+                "version: 1\nname: x\nobjects:\n  - name: s\n    mesh: "
+                "data/meshes/sphere_shell.obj\n    shell: {mas: 1}\n",
+                ErrorCode::kInvalidArgument, "unknown key 'mas' in shell"},
+        BadCase{"shell mass",
+                "version: 1\nname: x\nobjects:\n  - name: s\n    mesh: "
+                "data/meshes/sphere_shell.obj\n    shell: {mass: -1}\n",
+                ErrorCode::kInvalidArgument, "'mass' = -1"}));
 
 TEST(SceneFile, MissingFileIsAnIoError) {
   const auto s = load_scene_file(kRoot / "config" / "scenes" / "no_such_scene.yaml", {});
