@@ -86,6 +86,54 @@ struct Pattern {
 
 }  // namespace
 
+InertiaAndContact::InertiaAndContact(const Eigen::VectorXd& mass, double h, double damping,
+                                     const Eigen::Vector3d& gravity, const Eigen::Matrix3Xd& xn,
+                                     const Eigen::Matrix3Xd& vn, const Eigen::Matrix3Xd& forces,
+                                     const Eigen::Matrix3Xd& blocks)
+    : mass_(mass), h_(h), damping_(damping), xn_(xn), forces_(forces), target_(xn + h * vn) {
+  target_.colwise() += h * h * gravity;
+  // Contact blocks, symmetrised (the service's are symmetric up to rounding).
+  if (blocks.cols() == 3 * xn.cols()) {
+    kc_.resize(static_cast<std::size_t>(xn.cols()));
+    for (Index i = 0; i < xn.cols(); ++i) {
+      const Eigen::Matrix3d b = blocks.middleCols<3>(3 * i);
+      kc_[static_cast<std::size_t>(i)] = 0.5 * (b + b.transpose());
+    }
+  }
+}
+
+double InertiaAndContact::energy(Index i, const Eigen::Matrix3Xd& x) const {
+  const double m = mass_[i];
+  const Eigen::Vector3d dx = x.col(i) - xn_.col(i);
+  double e = 0.5 * m / (h_ * h_) * (x.col(i) - target_.col(i)).squaredNorm() +
+             0.5 * damping_ * m / h_ * dx.squaredNorm();
+  if (forces_.cols() == xn_.cols()) e -= forces_.col(i).dot(dx);
+  if (!kc_.empty()) e -= 0.5 * dx.dot(kc_[static_cast<std::size_t>(i)] * dx);
+  return e;
+}
+
+Eigen::Vector3d InertiaAndContact::gradient(Index i, const Eigen::Matrix3Xd& x) const {
+  const double m = mass_[i];
+  const Eigen::Vector3d dx = x.col(i) - xn_.col(i);
+  Eigen::Vector3d g = m / (h_ * h_) * (x.col(i) - target_.col(i)) + damping_ * m / h_ * dx;
+  if (forces_.cols() == xn_.cols()) g -= forces_.col(i);
+  if (!kc_.empty()) g -= kc_[static_cast<std::size_t>(i)] * dx;
+  return g;
+}
+
+Eigen::Matrix3d InertiaAndContact::hessian(Index i) const {
+  Eigen::Matrix3d d =
+      (mass_[i] / (h_ * h_) + damping_ * mass_[i] / h_) * Eigen::Matrix3d::Identity();
+  if (!kc_.empty()) d -= kc_[static_cast<std::size_t>(i)];
+  return d;
+}
+
+double InertiaAndContact::damping_work(const Eigen::Matrix3Xd& v) const {
+  double lost = 0.0;
+  for (Index i = 0; i < v.cols(); ++i) lost += damping_ * mass_[i] * v.col(i).squaredNorm() * h_;
+  return lost;
+}
+
 struct ImplicitStepper::Impl {
   Pattern pattern;
   Eigen::SimplicialLDLT<SpMat, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
@@ -114,8 +162,9 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
   const double lambda = body.lambda();
   const double damping = body.material().damping;
   const double h = dt;
-  const bool has_forces = forces.cols() == n;
-  const bool has_blocks = blocks.cols() == 3 * n;
+  const Eigen::Matrix3Xd xn = body.positions();
+  const Eigen::Matrix3Xd vn = body.velocities();
+  const InertiaAndContact terms(mass, h, damping, gravity, xn, vn, forces, blocks);
 
   Impl& im = *impl_;
   if (!im.pattern.matches(body)) {
@@ -123,22 +172,7 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
     im.analysed = false;
   }
   SpMat& a = im.pattern.a;
-
-  const Eigen::Matrix3Xd xn = body.positions();
-  const Eigen::Matrix3Xd vn = body.velocities();
-  Eigen::Matrix3Xd target = xn + h * vn;  // x~ = xn + h vn + h^2 g
-  target.colwise() += h * h * gravity;
-  // Contact blocks, symmetrised (the service's are symmetric up to rounding).
-  std::vector<Eigen::Matrix3d> kc;
-  if (has_blocks) {
-    kc.resize(static_cast<std::size_t>(n));
-    for (Index i = 0; i < n; ++i) {
-      const Eigen::Matrix3d b = blocks.middleCols<3>(3 * i);
-      kc[static_cast<std::size_t>(i)] = 0.5 * (b + b.transpose());
-    }
-  }
   const auto is_pinned = [&](Index i) { return pinned[static_cast<std::size_t>(i)]; };
-
   // The incremental potential E(x); +inf when a tet is inverted or flat.
   const auto potential = [&](const Eigen::Matrix3Xd& x) {
     double e = 0.0;
@@ -151,14 +185,7 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
       ds.col(2) = p.col(3) - p.col(0);
       e += vol[t] * snh_energy_density(ds * dm_inv[t], mu, lambda);
     }
-    for (Index i = 0; i < n; ++i) {
-      const double m = mass[i];
-      const Eigen::Vector3d dx = x.col(i) - xn.col(i);
-      e += 0.5 * m / (h * h) * (x.col(i) - target.col(i)).squaredNorm() +
-           0.5 * damping * m / h * dx.squaredNorm();
-      if (has_forces) e -= forces.col(i).dot(dx);
-      if (has_blocks) e -= 0.5 * dx.dot(kc[static_cast<std::size_t>(i)] * dx);
-    }
+    for (Index i = 0; i < n; ++i) e += terms.energy(i, x);
     return e;
   };
   // Gradient of E (3 x n), zero on pinned nodes.
@@ -170,15 +197,10 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
         g.col(tets[t][static_cast<std::size_t>(k)]) -= f.segment<3>(3 * k);
     }
     for (Index i = 0; i < n; ++i) {
-      if (is_pinned(i)) {
+      if (is_pinned(i))
         g.col(i).setZero();
-        continue;
-      }
-      const double m = mass[i];
-      const Eigen::Vector3d dx = x.col(i) - xn.col(i);
-      g.col(i) += m / (h * h) * (x.col(i) - target.col(i)) + damping * m / h * dx;
-      if (has_forces) g.col(i) -= forces.col(i);
-      if (has_blocks) g.col(i) -= kc[static_cast<std::size_t>(i)] * dx;
+      else
+        g.col(i) += terms.gradient(i, x);
     }
     return g;
   };
@@ -213,11 +235,9 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
         for (int c = 0; c < 3; ++c) val[slot[c] + c] = 1.0;
         continue;
       }
-      const double m = mass[i] / (h * h) + damping * mass[i] / h;
-      for (int c = 0; c < 3; ++c) val[slot[c] + c] += m;
-      if (has_blocks)
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) val[slot[c] + r] -= kc[static_cast<std::size_t>(i)](r, c);
+      const Eigen::Matrix3d d = terms.hessian(i);
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) val[slot[c] + r] += d(r, c);
     }
   };
 
@@ -256,22 +276,7 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
     }
     const Eigen::Map<const Eigen::Matrix3Xd> dir(d.data(), 3, n);
     const double slope = rhs_view.dot(d);  // g . d < 0 for a descent direction
-    double step = 1.0;
-    Eigen::Matrix3Xd trial = x + dir;
-    double e_trial = potential(trial);
-    while (!(e_trial <= e + 1e-4 * step * slope) && step > 1e-6) {
-      step *= 0.5;
-      ++report.line_search_halvings;
-      trial = x + step * dir;
-      e_trial = potential(trial);
-    }
-    if (!(e_trial <= e + 1e-4 * step * slope)) {  // no decrease: keep x
-      report.line_search_failed = true;
-      break;
-    }
-    x = std::move(trial);
-    e = e_trial;
-    report.last_update = step * dir.colwise().norm().maxCoeff() / h;
+    if (!line_search(potential, dir, slope, h, x, e, report)) break;
     if (report.last_update < options_.velocity_tolerance) break;
   }
   Eigen::Matrix3Xd v = (x - xn) / h;
@@ -280,10 +285,7 @@ StepReport ImplicitStepper::step(Body& body, double dt, const Eigen::Vector3d& g
       x.col(i) = xn.col(i);
       v.col(i).setZero();
     }
-  // Work of the damping force -a M v over the step.
-  double lost = 0.0;
-  for (Index i = 0; i < n; ++i) lost += damping * mass[i] * v.col(i).squaredNorm() * h;
-  body.add_dissipated(lost);
+  body.add_dissipated(terms.damping_work(v));  // work of the damping force -a M v
   body.set_positions(x);
   body.set_velocities(v);
   return report;

@@ -26,6 +26,36 @@
 
 namespace tc::sim {
 
+/// The terms of the incremental potential above that every body's step shares, its Psi
+/// aside: inertia about x~ = xn + h vn + h^2 g, mass-proportional damping a, and the
+/// contact force linearised about xn (fc and the symmetrised blocks Kc). ImplicitStepper
+/// adds the Neo-Hookean Psi, ShellBody (shell_body.hpp) its springs and gas.
+class InertiaAndContact {
+ public:
+  /// `forces` 3 x n or empty, `blocks` 3 x 3n or empty (as ImplicitStepper::step takes).
+  InertiaAndContact(const Eigen::VectorXd& mass, double h, double damping,
+                    const Eigen::Vector3d& gravity, const Eigen::Matrix3Xd& xn,
+                    const Eigen::Matrix3Xd& vn, const Eigen::Matrix3Xd& forces,
+                    const Eigen::Matrix3Xd& blocks);
+  /// Node i's terms of E at x.
+  [[nodiscard]] double energy(Index i, const Eigen::Matrix3Xd& x) const;
+  /// Node i's terms of dE/dx at x.
+  [[nodiscard]] Eigen::Vector3d gradient(Index i, const Eigen::Matrix3Xd& x) const;
+  /// Node i's diagonal block of d2E/dx2: (m/h^2 + a m/h) I - Kc_i.
+  [[nodiscard]] Eigen::Matrix3d hessian(Index i) const;
+  /// The damping's work over the step that ends at velocities v, J.
+  [[nodiscard]] double damping_work(const Eigen::Matrix3Xd& v) const;
+
+ private:
+  const Eigen::VectorXd& mass_;
+  double h_;
+  double damping_;
+  const Eigen::Matrix3Xd& xn_;
+  const Eigen::Matrix3Xd& forces_;
+  Eigen::Matrix3Xd target_;
+  std::vector<Eigen::Matrix3d> kc_;  ///< empty without blocks
+};
+
 enum class LinearSolver { kLdlt, kCg };
 
 struct ImplicitOptions {
@@ -46,6 +76,33 @@ struct StepReport {
   /// kept; with one Newton step per frame that frame is free flight plus nothing).
   bool line_search_failed = false;
 };
+
+/// One Newton update of a backward Euler step: a backtracking (Armijo, 1e-4) line search
+/// of `potential` (E, +inf where inadmissible) from x, where E = e, along `dir` with
+/// slope g . dir; halves the step down to 1e-6. On a decrease it moves x and e, sets
+/// report.last_update (largest velocity change, m/s, for a frame of h seconds) and
+/// returns true; otherwise it sets report.line_search_failed and leaves x alone.
+template <typename Potential>
+bool line_search(const Potential& potential, const Eigen::Matrix3Xd& dir, double slope, double h,
+                 Eigen::Matrix3Xd& x, double& e, StepReport& report) {
+  double step = 1.0;
+  Eigen::Matrix3Xd trial = x + dir;
+  double e_trial = potential(trial);
+  while (!(e_trial <= e + 1e-4 * step * slope) && step > 1e-6) {
+    step *= 0.5;
+    ++report.line_search_halvings;
+    trial = x + step * dir;
+    e_trial = potential(trial);
+  }
+  if (!(e_trial <= e + 1e-4 * step * slope)) {  // no decrease: keep x
+    report.line_search_failed = true;
+    return false;
+  }
+  x = std::move(trial);
+  e = e_trial;
+  report.last_update = step * dir.colwise().norm().maxCoeff() / h;
+  return true;
+}
 
 class ImplicitStepper {
  public:

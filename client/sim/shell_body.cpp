@@ -88,8 +88,7 @@ Expected<ShellBody> ShellBody::create(SurfaceMesh surface, const ShellMaterial& 
 
 double ShellBody::volume_of(const Eigen::Matrix3Xd& x) const {
   double v = 0.0;
-  for (const Triangle& t : rest_.triangles)
-    v += x.col(t[0]).dot(x.col(t[1]).cross(x.col(t[2])));
+  for (const Triangle& t : rest_.triangles) v += x.col(t[0]).dot(x.col(t[1]).cross(x.col(t[2])));
   return v / 6.0;
 }
 
@@ -134,7 +133,9 @@ Eigen::Matrix3Xd ShellBody::potential_gradient(const Eigen::Matrix3Xd& x) const 
   return g;
 }
 
-Eigen::Matrix3Xd ShellBody::internal_forces() const { return -potential_gradient(x_); }
+Eigen::Matrix3Xd ShellBody::internal_forces() const {
+  return -potential_gradient(x_);
+}
 
 Energy ShellBody::energy(const Eigen::Vector3d& gravity) const {
   Energy e;
@@ -154,42 +155,18 @@ StepReport ShellBody::step(double dt, const Eigen::Vector3d& gravity,
   const double h = dt;
   const double damping = material_.damping;
   const double p0 = material_.pressure;
-  const bool has_forces = forces.cols() == n;
-  const bool has_blocks = blocks.cols() == 3 * n;
   const Eigen::Matrix3Xd xn = x_;
   const Eigen::Matrix3Xd vn = v_;
-  Eigen::Matrix3Xd target = xn + h * vn;  // x~ = xn + h vn + h^2 g
-  target.colwise() += h * h * gravity;
-  std::vector<Eigen::Matrix3d> kc;
-  if (has_blocks) {
-    kc.resize(static_cast<std::size_t>(n));
-    for (Index i = 0; i < n; ++i) {
-      const Eigen::Matrix3d b = blocks.middleCols<3>(3 * i);
-      kc[static_cast<std::size_t>(i)] = 0.5 * (b + b.transpose());
-    }
-  }
+  const InertiaAndContact terms(mass_, h, damping, gravity, xn, vn, forces, blocks);
   // The incremental potential (implicit_step.hpp) with Psi of the shell.
   const auto potential = [&](const Eigen::Matrix3Xd& x) {
     double e = potential_of(x);
-    for (Index i = 0; i < n; ++i) {
-      const double m = mass_[i];
-      const Eigen::Vector3d dx = x.col(i) - xn.col(i);
-      e += 0.5 * m / (h * h) * (x.col(i) - target.col(i)).squaredNorm() +
-           0.5 * damping * m / h * dx.squaredNorm();
-      if (has_forces) e -= forces.col(i).dot(dx);
-      if (has_blocks) e -= 0.5 * dx.dot(kc[static_cast<std::size_t>(i)] * dx);
-    }
+    for (Index i = 0; i < n; ++i) e += terms.energy(i, x);
     return e;
   };
   const auto gradient = [&](const Eigen::Matrix3Xd& x) {
     Eigen::Matrix3Xd g = potential_gradient(x);
-    for (Index i = 0; i < n; ++i) {
-      const double m = mass_[i];
-      const Eigen::Vector3d dx = x.col(i) - xn.col(i);
-      g.col(i) += m / (h * h) * (x.col(i) - target.col(i)) + damping * m / h * dx;
-      if (has_forces) g.col(i) -= forces.col(i);
-      if (has_blocks) g.col(i) -= kc[static_cast<std::size_t>(i)] * dx;
-    }
+    for (Index i = 0; i < n; ++i) g.col(i) += terms.gradient(i, x);
     return g;
   };
   // M/h^2 + a M/h - Kc + the springs' Hessians projected to PSD (the gas's rank-one term is
@@ -199,8 +176,7 @@ StepReport ShellBody::step(double dt, const Eigen::Vector3d& gravity,
     trip.clear();
     trip.reserve(static_cast<std::size_t>(n) * 9 + edges_.size() * 36);
     for (Index i = 0; i < n; ++i) {
-      Eigen::Matrix3d d = (mass_[i] / (h * h) + damping * mass_[i] / h) * Eigen::Matrix3d::Identity();
-      if (has_blocks) d -= kc[static_cast<std::size_t>(i)];
+      const Eigen::Matrix3d d = terms.hessian(i);
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) trip.emplace_back(3 * i + r, 3 * i + c, d(r, c));
     }
@@ -260,29 +236,12 @@ StepReport ShellBody::step(double dt, const Eigen::Vector3d& gravity,
     }
     const Eigen::Map<const Eigen::Matrix3Xd> dir(d.data(), 3, n);
     const double slope = gv.dot(d);
-    double step = 1.0;
-    Eigen::Matrix3Xd trial = x + dir;
-    double e_trial = potential(trial);
-    while (!(e_trial <= e + 1e-4 * step * slope) && step > 1e-6) {
-      step *= 0.5;
-      ++report.line_search_halvings;
-      trial = x + step * dir;
-      e_trial = potential(trial);
-    }
-    if (!(e_trial <= e + 1e-4 * step * slope)) {
-      report.line_search_failed = true;
-      break;
-    }
-    x = std::move(trial);
-    e = e_trial;
-    report.last_update = step * dir.colwise().norm().maxCoeff() / h;
+    if (!line_search(potential, dir, slope, h, x, e, report)) break;
     if (report.last_update < 1e-4) break;
   }
   v_ = (x - xn) / h;
   x_ = std::move(x);
-  double lost = 0.0;
-  for (Index i = 0; i < n; ++i) lost += damping * mass_[i] * v_.col(i).squaredNorm() * h;
-  dissipated_ += lost;
+  dissipated_ += terms.damping_work(v_);
   return report;
 }
 

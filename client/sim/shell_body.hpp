@@ -37,10 +37,10 @@
 namespace tc::sim {
 
 struct ShellMaterial {
-  double mass = 1.0;         ///< total mass, kg, lumped to the vertices by area
-  double stretch = 1e3;      ///< membrane stiffness (Young's modulus x thickness), N/m
-  double pressure = 1e4;     ///< p0 of the gas inside (and of the air outside), Pa
-  double damping = 0.0;      ///< mass-proportional damping, 1/s
+  double mass = 1.0;      ///< total mass, kg, lumped to the vertices by area
+  double stretch = 1e3;   ///< membrane stiffness (Young's modulus x thickness), N/m
+  double pressure = 1e4;  ///< p0 of the gas inside (and of the air outside), Pa
+  double damping = 0.0;   ///< mass-proportional damping, 1/s
 };
 
 class ShellBody {

@@ -105,7 +105,7 @@ TEST(SceneRun, AShellSphereLandsOnTheServiceFloorWithoutGainingEnergy) {
   std::size_t contact_frames = 0;
   double lowest = 1.0;
   double smallest_volume = o.shell->rest_volume();
-  for (int f = 0; f < 400; ++f) {
+  for (int f = 0; f < 250; ++f) {
     ASSERT_TRUE(run->exchange(floor, f, SceneRun::Probe::kIfContact));
     contact_frames += run->books().contacts > 0 ? 1 : 0;
     ASSERT_TRUE(run->advance(floor, f));
