@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/io/mesh_io.hpp"
@@ -113,6 +114,18 @@ class GmshParser {
   Status data_line(std::string_view& line, const What& what);
 
   Status add_node(std::int64_t tag, double x, double y, double z);
+  /// The node tags that end an element's text line (after its number, and its tags in
+  /// 2.2): for the wanted type each one becomes a node index appended to the connectivity;
+  /// for another type of fixed size they are only counted.
+  Status element_nodes_text(Tokens& tok, std::int64_t num, std::int64_t type);
+  /// The index of node `tag`, -1 for a tag no node has (text tags are signed, binary
+  /// ones unsigned).
+  template <typename Tag>
+  Index node_index(Tag tag) const;
+  template <typename Tag>
+  static std::string unknown_node(Tag num, Tag tag) {
+    return "element " + std::to_string(num) + " refers to unknown node tag " + std::to_string(tag);
+  }
   Status check_node_total(std::uint64_t more);
   Status check_fits(std::uint64_t count, std::uint64_t min_bytes, std::string_view what);
 
@@ -293,6 +306,52 @@ Status GmshParser::add_node(std::int64_t tag, double x, double y, double z) {
   return {};
 }
 
+template <typename Tag>
+Index GmshParser::node_index(Tag tag) const {
+  if constexpr (std::is_unsigned_v<Tag>) {
+    if (tag > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return -1;
+  }
+  return tags_.find(static_cast<std::int64_t>(tag));
+}
+
+Status GmshParser::element_nodes_text(Tokens& tok, std::int64_t num, std::int64_t type) {
+  if (type != wanted_type_) {
+    const int expected =
+        gmsh_element_node_count(static_cast<int>(type < 0 || type > 1000 ? 0 : type));
+    if (expected <= 0) return {};
+    const std::size_t got = tok.count_rest();
+    if (got != static_cast<std::size_t>(expected))
+      return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
+                                         " node tags for element " + std::to_string(num) +
+                                         " (type " + std::to_string(type) + "), got " +
+                                         std::to_string(got));
+    return {};
+  }
+  const auto k = static_cast<std::size_t>(wanted_nodes_);
+  Index conn[8];
+  std::size_t got = 0;
+  std::string_view t;
+  while (tok.next(t)) {
+    std::int64_t node = 0;
+    if (!parse_int(t, node))
+      return fail(ErrorCode::kParse,
+                  "expected a node tag in element " + std::to_string(num) + ", got " + quote(t));
+    if (got < k) {
+      const Index index = node_index(node);
+      if (index < 0) return fail(ErrorCode::kInvalidMesh, unknown_node(num, node));
+      conn[got] = index;
+    }
+    ++got;
+  }
+  if (got != k)
+    return fail(ErrorCode::kParse, "expected " + std::to_string(k) + " node tags for element " +
+                                       std::to_string(num) + ", got " + std::to_string(got));
+  if (out_.conn.size() / k >= kMaxCount)
+    return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
+  out_.conn.insert(out_.conn.end(), conn, conn + k);
+  return {};
+}
+
 // ---- MSH 2.2 ----------------------------------------------------------------------
 
 Status GmshParser::parse_nodes_v2() {
@@ -333,7 +392,6 @@ Status GmshParser::parse_elements_v2() {
   if (Status st = read_counts("the number of elements", 1, &m); !st) return st;
   // Shortest element line: "1 15 0 1\n".
   if (Status st = check_fits(static_cast<std::uint64_t>(m), 9, "elements"); !st) return st;
-  const auto k = static_cast<std::size_t>(wanted_nodes_);
   std::string_view line;
   for (std::int64_t i = 0; i < m; ++i) {
     const auto what = [&] {
@@ -353,42 +411,7 @@ Status GmshParser::parse_elements_v2() {
         return fail(ErrorCode::kParse, "expected " + std::to_string(ntags) + " tags for element " +
                                            std::to_string(num));
     if (type == 4) ++out_.tets_seen;
-    if (type == wanted_type_) {
-      Index conn[8];
-      std::size_t got = 0;
-      while (tok.next(t)) {
-        std::int64_t node = 0;
-        if (!parse_int(t, node))
-          return fail(ErrorCode::kParse, "expected a node tag in element " + std::to_string(num) +
-                                             ", got " + quote(t));
-        if (got < k) {
-          const Index index = tags_.find(node);
-          if (index < 0)
-            return fail(ErrorCode::kInvalidMesh, "element " + std::to_string(num) +
-                                                     " refers to unknown node tag " +
-                                                     std::to_string(node));
-          conn[got] = index;
-        }
-        ++got;
-      }
-      if (got != k)
-        return fail(ErrorCode::kParse, "expected " + std::to_string(k) + " node tags for element " +
-                                           std::to_string(num) + ", got " + std::to_string(got));
-      if (out_.conn.size() / k >= kMaxCount)
-        return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
-      out_.conn.insert(out_.conn.end(), conn, conn + k);
-    } else {
-      const int expected =
-          gmsh_element_node_count(static_cast<int>(type < 0 || type > 1000 ? 0 : type));
-      if (expected > 0) {
-        const std::size_t got = tok.count_rest();
-        if (got != static_cast<std::size_t>(expected))
-          return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
-                                             " node tags for element " + std::to_string(num) +
-                                             " (type " + std::to_string(type) + "), got " +
-                                             std::to_string(got));
-      }
-    }
+    if (Status st = element_nodes_text(tok, num, type); !st) return st;
   }
   return expect_line("$EndElements");
 }
@@ -492,10 +515,9 @@ Status GmshParser::parse_elements_v4_text() {
       return fail(ErrorCode::kParse, "element blocks hold more than the " +
                                          std::to_string(num_elements) + " elements announced");
     total += count;
-    const int expected = gmsh_element_node_count(static_cast<int>(type > 1000 ? 0 : type));
     if (type == 4) out_.tets_seen += static_cast<std::uint64_t>(count);
-    const bool wanted = type == wanted_type_;
-    if (wanted) out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
+    if (type == wanted_type_)
+      out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
     for (std::int64_t i = 0; i < count; ++i) {
       const auto what = [&] {
         return "element " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
@@ -506,39 +528,7 @@ Status GmshParser::parse_elements_v4_text() {
       std::int64_t num = 0;
       if (!tok.next(t) || !parse_int(t, num))
         return fail(ErrorCode::kParse, "expected an element tag, got " + quote(trim(line)));
-      if (wanted) {
-        Index conn[8];
-        std::size_t got = 0;
-        while (tok.next(t)) {
-          std::int64_t node = 0;
-          if (!parse_int(t, node))
-            return fail(ErrorCode::kParse, "expected a node tag in element " + std::to_string(num) +
-                                               ", got " + quote(t));
-          if (got < k) {
-            const Index index = tags_.find(node);
-            if (index < 0)
-              return fail(ErrorCode::kInvalidMesh, "element " + std::to_string(num) +
-                                                       " refers to unknown node tag " +
-                                                       std::to_string(node));
-            conn[got] = index;
-          }
-          ++got;
-        }
-        if (got != k)
-          return fail(ErrorCode::kParse, "expected " + std::to_string(k) +
-                                             " node tags for element " + std::to_string(num) +
-                                             ", got " + std::to_string(got));
-        if (out_.conn.size() / k >= kMaxCount)
-          return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
-        out_.conn.insert(out_.conn.end(), conn, conn + k);
-      } else if (expected > 0) {
-        const std::size_t got = tok.count_rest();
-        if (got != static_cast<std::size_t>(expected))
-          return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
-                                             " node tags for element " + std::to_string(num) +
-                                             " (type " + std::to_string(type) + "), got " +
-                                             std::to_string(got));
-      }
+      if (Status st = element_nodes_text(tok, num, type); !st) return st;
     }
   }
   if (total != num_elements)
@@ -696,15 +686,10 @@ Status GmshParser::parse_elements_v4_binary() {
         const auto num = load_le<std::uint64_t>(p);
         for (std::size_t j = 0; j < k; ++j) {
           const auto node = load_le<std::uint64_t>(p + 8 * (1 + j));
-          const Index index =
-              node > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())
-                  ? -1
-                  : tags_.find(static_cast<std::int64_t>(node));
+          const Index index = node_index(node);
           if (index < 0)
             return fail_at(static_cast<std::size_t>(p - scan_.data().data()) + 8 * (1 + j),
-                           ErrorCode::kInvalidMesh,
-                           "element " + std::to_string(num) + " refers to unknown node tag " +
-                               std::to_string(node));
+                           ErrorCode::kInvalidMesh, unknown_node(num, node));
           out_.conn.push_back(index);
         }
       }
