@@ -610,44 +610,18 @@ struct BasicDepthSolver<D>::Impl {
   // kFeatureMultiStart: after the descent from u's own feature, descend also from the
   // feature of every settled neighbour (each distinct feature once) and keep the
   // nearest result. Escapes the local minima a single walk stops in, at a price.
-  void multi_start(Index u) {
-    Index best_f = feature[u];
-    float best_key = rec[u].key;
-    Vecf<D> best_point = point[u];
-    constexpr int kMaxStarts = 64;
-    Index tried[kMaxStarts];
-    int count = 0;
-    tried[count++] = best_f;
-    for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
-      const Index v = adjacency.indices[k];
-      if (!settled_now(v)) continue;
-      const Index f = feature[v];
-      if (std::find(tried, tried + count, f) != tried + count) continue;
-      tried[count++] = f;
-      feature[u] = f;
-      descend<Mode::kFeatureMultiStart>(u);
-      if (rec[u].key < best_key) {
-        best_key = rec[u].key;
-        best_f = feature[u];
-        best_point = point[u];
-      }
-    }
-    feature[u] = best_f;
-    rec[u].key = best_key;
-    point[u] = best_point;
-  }
-
-  // kFeatureNearStarts: kMultiStart's extra walks, only from the settled neighbours'
+  // kFeatureNearStarts: the same extra walks, only from the settled neighbours'
   // features that are already nearly as near as the best result so far (distance at
   // most kNearStartSlack above it); the others almost never lead to a nearer minimum
   // (docs/DEPTH_MAPS.md, "CFFM variants", has the counts). Each distinct feature is
   // evaluated once (one point-to-feature distance) and walked from at most once.
-  void near_starts(Index u) {
-    constexpr float kSlack2 = (1.0f + kNearStartSlack) * (1.0f + kNearStartSlack);
+  template <Mode kMode>
+  void extra_starts(Index u) {
+    static_assert(kMode == Mode::kFeatureMultiStart || kMode == Mode::kFeatureNearStarts);
     Index best_f = feature[u];
     float best_key = rec[u].key;
     Vecf<D> best_point = point[u];
-    const Vecf<D> x = pos_of<D>(rec[u]);
+    [[maybe_unused]] const Vecf<D> x = pos_of<D>(rec[u]);
     constexpr int kMaxStarts = 64;
     Index tried[kMaxStarts];
     int count = 0;
@@ -658,11 +632,14 @@ struct BasicDepthSolver<D>::Impl {
       const Index f = feature[v];
       if (std::find(tried, tried + count, f) != tried + count) continue;
       tried[count++] = f;
-      Vecf<D> c[D];
-      load_corners(f, c);
-      if (simplex_distance<D, float>(x, c).sq_dist >= best_key * kSlack2) continue;
+      if constexpr (kMode == Mode::kFeatureNearStarts) {
+        constexpr float kSlack2 = (1.0f + kNearStartSlack) * (1.0f + kNearStartSlack);
+        Vecf<D> c[D];
+        load_corners(f, c);
+        if (simplex_distance<D, float>(x, c).sq_dist >= best_key * kSlack2) continue;
+      }
       feature[u] = f;
-      descend<Mode::kFeatureNearStarts>(u);
+      descend<kMode>(u);
       if (rec[u].key < best_key) {
         best_key = rec[u].key;
         best_f = feature[u];
@@ -740,8 +717,8 @@ struct BasicDepthSolver<D>::Impl {
       }
       if (is_final(rec[u].key)) continue;
       if constexpr (kMode != Mode::kPoint && kMode != Mode::kFeaturePaper) descend<kMode>(u);
-      if constexpr (kMode == Mode::kFeatureMultiStart) multi_start(u);
-      if constexpr (kMode == Mode::kFeatureNearStarts) near_starts(u);
+      if constexpr (kMode == Mode::kFeatureMultiStart || kMode == Mode::kFeatureNearStarts)
+        extra_starts<kMode>(u);
       rec[u].key = -rec[u].key;
       settled_list.push_back(u);
       if (lazy && mark[u] == stamp && --remaining == 0) break;
