@@ -1,17 +1,10 @@
 #include "demo_support.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
-#include <thread>
 
 #ifndef TC_SOURCE_DIR
 #define TC_SOURCE_DIR ""
@@ -63,66 +56,23 @@ ChildProcess::~ChildProcess() {
 Status ChildProcess::start(const std::vector<std::string>& argv, const std::filesystem::path& log) {
   if (argv.empty() || !std::filesystem::exists(argv[0]))
     return Error{ErrorCode::kIo, "program not found: " + (argv.empty() ? std::string() : argv[0])};
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (fd < 0) return Error{ErrorCode::kIo, "cannot open " + log.string()};
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) {
-    close(fd);
-    return Error{ErrorCode::kIo, "fork failed"};
-  }
-  if (pid == 0) {
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (getppid() != parent) _exit(127);
-    // The demo's own signal dispositions must not leak into the daemon.
-    signal(SIGINT, SIG_DFL);
-    signal(SIGTERM, SIG_DFL);
-    sigset_t none;
-    sigemptyset(&none);
-    sigprocmask(SIG_SETMASK, &none, nullptr);
-    // Ctrl-C in the terminal reaches the demo only; the demo stops the daemon.
-    setpgid(0, 0);
-    dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  close(fd);
-  pid_ = pid;
-  return {};
+  // The demo's own signal dispositions must not leak into the daemon, and Ctrl-C in the
+  // terminal reaches the demo only; the demo stops the daemon.
+  return child_.start({.argv = argv,
+                       .out = log,
+                       .err = log,
+                       .parent_death_signal = SIGTERM,
+                       .reset_signals = true,
+                       .own_process_group = true});
 }
 
 bool ChildProcess::alive() {
-  if (pid_ <= 0) return false;
-  int status = 0;
-  if (waitpid(pid_, &status, WNOHANG) == pid_) {
-    pid_ = -1;
-    return false;
-  }
-  return true;
+  return !child_.exited();
 }
 
 int ChildProcess::stop(int sig, std::chrono::milliseconds timeout) {
-  if (pid_ <= 0) return -1;
-  kill(pid_, sig);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  int status = 0;
-  for (;;) {
-    const pid_t r = waitpid(pid_, &status, WNOHANG);
-    if (r == pid_ || r < 0) break;
-    if (std::chrono::steady_clock::now() >= deadline) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, &status, 0);
-      pid_ = -1;
-      return -1;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  pid_ = -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const std::optional<int> status = child_.stop(sig, timeout);
+  return status ? process::exit_code(*status) : -1;
 }
 
 Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>& entries) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "core/common/result.hpp"
 #include "core/io/mesh_io.hpp"
 
@@ -44,10 +45,10 @@ class ChildProcess {
   bool alive();
   /// Sends `sig`, then waits up to `timeout` (SIGKILL after). Returns the exit code, or -1.
   int stop(int sig = 15, std::chrono::milliseconds timeout = std::chrono::seconds(10));
-  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] pid_t pid() const { return child_.pid(); }
 
  private:
-  pid_t pid_ = -1;
+  process::Child child_;
 };
 
 /// A ParaView collection (.pvd) of time steps.
