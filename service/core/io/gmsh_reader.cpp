@@ -57,6 +57,28 @@ using io_detail::trim;
 
 constexpr std::uint64_t kMaxCount = static_cast<std::uint64_t>(std::numeric_limits<Index>::max());
 
+/// Bounds-checked reads from the binary part of a file.
+class BinaryCursor {
+ public:
+  BinaryCursor(std::string_view data, std::size_t pos) : data_(data), pos_(pos) {}
+  [[nodiscard]] std::size_t pos() const { return pos_; }
+  [[nodiscard]] std::size_t remaining() const { return data_.size() - pos_; }
+  [[nodiscard]] bool has(std::uint64_t n) const { return n <= remaining(); }
+  [[nodiscard]] const char* here() const { return data_.data() + pos_; }
+  /// Callers check has() first.
+  template <typename T>
+  T take() {
+    const T v = load_le<T>(data_.data() + pos_);
+    pos_ += sizeof(T);
+    return v;
+  }
+  void skip(std::uint64_t n) { pos_ += static_cast<std::size_t>(n); }
+
+ private:
+  std::string_view data_;
+  std::size_t pos_;
+};
+
 /// Nodes and wanted elements as parsed, before they become a TetMesh or TriMesh2.
 struct GmshData {
   std::vector<std::int64_t> ids;
@@ -86,6 +108,18 @@ class GmshParser {
   // Errors located at an earlier line of a text file.
   Error fail_at_line(std::size_t line, ErrorCode code, const std::string& message) const {
     return text_error(code, name_, line, message);
+  }
+  // Binary data ending before `what`, located where it was expected.
+  Error truncated(const BinaryCursor& c, const std::string& what) const {
+    return fail_at(c.pos(), ErrorCode::kParse,
+                   "unexpected end of file, expected " + what + " (" +
+                       std::to_string(c.remaining()) + " bytes left)");
+  }
+  // A section's header announcing another count of `noun` than its blocks hold.
+  static std::string blocks_hold(std::string_view section, std::uint64_t announced,
+                                 std::uint64_t total, std::string_view noun) {
+    return std::string(section) + " header announces " + std::to_string(announced) + " " +
+           std::string(noun) + ", its blocks hold " + std::to_string(total);
   }
   Error end_of_file(const std::string& expected) const {
     if (binary_)
@@ -486,8 +520,8 @@ Status GmshParser::parse_nodes_v4_text() {
   }
   if (total != num_nodes)
     return fail_at_line(header_line, ErrorCode::kParse,
-                        "$Nodes header announces " + std::to_string(num_nodes) +
-                            " nodes, its blocks hold " + std::to_string(total));
+                        blocks_hold("$Nodes", static_cast<std::uint64_t>(num_nodes),
+                                    static_cast<std::uint64_t>(total), "nodes"));
   return expect_line("$EndNodes");
 }
 
@@ -533,43 +567,16 @@ Status GmshParser::parse_elements_v4_text() {
   }
   if (total != num_elements)
     return fail_at_line(header_line, ErrorCode::kParse,
-                        "$Elements header announces " + std::to_string(num_elements) +
-                            " elements, its blocks hold " + std::to_string(total));
+                        blocks_hold("$Elements", static_cast<std::uint64_t>(num_elements),
+                                    static_cast<std::uint64_t>(total), "elements"));
   return expect_line("$EndElements");
 }
 
 // ---- MSH 4.1 binary ---------------------------------------------------------------
 
-/// Bounds-checked reads from the binary part of a file.
-class BinaryCursor {
- public:
-  BinaryCursor(std::string_view data, std::size_t pos) : data_(data), pos_(pos) {}
-  [[nodiscard]] std::size_t pos() const { return pos_; }
-  [[nodiscard]] std::size_t remaining() const { return data_.size() - pos_; }
-  [[nodiscard]] bool has(std::uint64_t n) const { return n <= remaining(); }
-  [[nodiscard]] const char* here() const { return data_.data() + pos_; }
-  /// Callers check has() first.
-  template <typename T>
-  T take() {
-    const T v = load_le<T>(data_.data() + pos_);
-    pos_ += sizeof(T);
-    return v;
-  }
-  void skip(std::uint64_t n) { pos_ += static_cast<std::size_t>(n); }
-
- private:
-  std::string_view data_;
-  std::size_t pos_;
-};
-
 Status GmshParser::parse_nodes_v4_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Nodes header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Nodes header (4 x size_t)");
   const std::size_t header_at = c.pos();
   const auto blocks = c.take<std::uint64_t>();
   const auto num_nodes = c.take<std::uint64_t>();
@@ -587,7 +594,7 @@ Status GmshParser::parse_nodes_v4_binary() {
   std::uint64_t total = 0;
   for (std::uint64_t b = 0; b < blocks; ++b) {
     const std::size_t block_at = c.pos();
-    if (!c.has(20)) return truncated("the header of node block " + std::to_string(b + 1));
+    if (!c.has(20)) return truncated(c, "the header of node block " + std::to_string(b + 1));
     const auto dim = c.take<std::int32_t>();
     c.take<std::int32_t>();  // entity tag
     const auto parametric = c.take<std::int32_t>();
@@ -603,7 +610,7 @@ Status GmshParser::parse_nodes_v4_binary() {
           block_at, ErrorCode::kParse,
           "node blocks hold more than the " + std::to_string(num_nodes) + " nodes announced");
     if (count > c.remaining() / per_node)
-      return truncated(std::to_string(count) + " nodes in block " + std::to_string(b + 1));
+      return truncated(c, std::to_string(count) + " nodes in block " + std::to_string(b + 1));
     total += count;
     const char* tags = c.here();
     const char* coords = tags + 8 * count;
@@ -628,21 +635,14 @@ Status GmshParser::parse_nodes_v4_binary() {
     c.skip(per_node * count);
   }
   if (total != num_nodes)
-    return fail_at(header_at, ErrorCode::kParse,
-                   "$Nodes header announces " + std::to_string(num_nodes) +
-                       " nodes, its blocks hold " + std::to_string(total));
+    return fail_at(header_at, ErrorCode::kParse, blocks_hold("$Nodes", num_nodes, total, "nodes"));
   scan_.seek(c.pos());
   return expect_line("$EndNodes");
 }
 
 Status GmshParser::parse_elements_v4_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Elements header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Elements header (4 x size_t)");
   const std::size_t header_at = c.pos();
   const auto blocks = c.take<std::uint64_t>();
   const auto num_elements = c.take<std::uint64_t>();
@@ -657,7 +657,7 @@ Status GmshParser::parse_elements_v4_binary() {
   std::uint64_t total = 0;
   for (std::uint64_t b = 0; b < blocks; ++b) {
     const std::size_t block_at = c.pos();
-    if (!c.has(20)) return truncated("the header of element block " + std::to_string(b + 1));
+    if (!c.has(20)) return truncated(c, "the header of element block " + std::to_string(b + 1));
     c.take<std::int32_t>();  // entity dim
     c.take<std::int32_t>();  // entity tag
     const auto type = c.take<std::int32_t>();
@@ -673,8 +673,8 @@ Status GmshParser::parse_elements_v4_binary() {
                          " elements announced");
     const std::uint64_t per_element = 8 * (1 + static_cast<std::uint64_t>(nodes));
     if (count > c.remaining() / per_element)
-      return truncated(std::to_string(count) + " elements of type " + std::to_string(type) +
-                       " in block " + std::to_string(b + 1));
+      return truncated(c, std::to_string(count) + " elements of type " + std::to_string(type) +
+                              " in block " + std::to_string(b + 1));
     total += count;
     if (type == 4) out_.tets_seen += count;
     if (type == wanted_type_) {
@@ -698,20 +698,14 @@ Status GmshParser::parse_elements_v4_binary() {
   }
   if (total != num_elements)
     return fail_at(header_at, ErrorCode::kParse,
-                   "$Elements header announces " + std::to_string(num_elements) +
-                       " elements, its blocks hold " + std::to_string(total));
+                   blocks_hold("$Elements", num_elements, total, "elements"));
   scan_.seek(c.pos());
   return expect_line("$EndElements");
 }
 
 Status GmshParser::parse_entities_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Entities header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Entities header (4 x size_t)");
   std::uint64_t counts[4];
   for (auto& n : counts) n = c.take<std::uint64_t>();
   static constexpr const char* kKinds[4] = {"point", "curve", "surface", "volume"};
@@ -719,20 +713,20 @@ Status GmshParser::parse_entities_binary() {
     // Point: int tag, 3 doubles, size_t; others: int tag, 6 doubles, 2 size_t.
     const std::uint64_t min_bytes = kind == 0 ? 36 : 68;
     if (counts[kind] > c.remaining() / min_bytes)
-      return truncated(std::to_string(counts[kind]) + " " + kKinds[kind] + " entities");
+      return truncated(c, std::to_string(counts[kind]) + " " + kKinds[kind] + " entities");
     for (std::uint64_t e = 0; e < counts[kind]; ++e) {
       const auto what = [&] {
         return std::string(kKinds[kind]) + " entity " + std::to_string(e + 1);
       };
-      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(what());
+      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(c, what());
       c.skip(kind == 0 ? 4 + 24 : 4 + 48);
       const auto physicals = c.take<std::uint64_t>();
-      if (physicals > c.remaining() / 4) return truncated("physical tags of " + what());
+      if (physicals > c.remaining() / 4) return truncated(c, "physical tags of " + what());
       c.skip(4 * physicals);
       if (kind > 0) {
-        if (!c.has(8)) return truncated("bounding entity count of " + what());
+        if (!c.has(8)) return truncated(c, "bounding entity count of " + what());
         const auto bounding = c.take<std::uint64_t>();
-        if (bounding > c.remaining() / 4) return truncated("bounding entities of " + what());
+        if (bounding > c.remaining() / 4) return truncated(c, "bounding entities of " + what());
         c.skip(4 * bounding);
       }
     }
