@@ -229,6 +229,23 @@ std::vector<std::unique_ptr<Worker>> start_workers(const std::filesystem::path& 
   return workers;
 }
 
+/// Waits for every worker to exit: the summaries they printed. `failed` counts a worker
+/// that exited non-zero and one without a summary (so once or twice).
+std::vector<nlohmann::json> wait_workers(std::vector<std::unique_ptr<Worker>>& workers,
+                                         int& failed) {
+  std::vector<nlohmann::json> summaries;
+  for (auto& w : workers) {
+    failed += w->wait() != 0 ? 1 : 0;
+    auto s = w->summary();
+    if (s.is_discarded() || s.is_null()) {
+      ++failed;
+      continue;
+    }
+    summaries.push_back(std::move(s));
+  }
+  return summaries;
+}
+
 /// Waits until every worker has registered its objects, then lets them all stream at
 /// once; false when one exits first or after `timeout`.
 bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::duration timeout) {
@@ -288,13 +305,7 @@ int run_load(std::uint32_t domain, pid_t daemon, const LoadArgs& a, bool json) {
   double max_publish_ms = 0.0;
   double seconds = 0.0;
   int failed = 0;
-  for (auto& w : workers) {
-    failed += w->wait() != 0 ? 1 : 0;
-    const auto s = w->summary();
-    if (s.is_discarded() || s.is_null()) {
-      ++failed;
-      continue;
-    }
+  for (const auto& s : wait_workers(workers, failed)) {
     for (const double v : s["latency_ms"]) latency.push_back(v);
     published += s["frames_published"].get<std::int64_t>();
     answered += s["frames_answered"].get<std::int64_t>();
@@ -407,15 +418,8 @@ int run_soak(std::uint32_t domain, pid_t daemon, double seconds, int cycles, boo
   }
   std::int64_t answered = 0;
   int failed = 0;
-  for (auto& w : workers) {
-    failed += w->wait() != 0 ? 1 : 0;
-    const auto s = w->summary();
-    if (s.is_discarded() || s.is_null()) {
-      ++failed;
-      continue;
-    }
+  for (const auto& s : wait_workers(workers, failed))
     answered += s["frames_answered"].get<std::int64_t>();
-  }
   constexpr int kWarmup = 5;  // cycles before the reference sample
   const auto& first = samples[std::min(kWarmup, cycles) - 1];
   const auto& last = samples.back();
