@@ -3,7 +3,8 @@
 # the reliability tests kill and stop.
 add_executable(service_load ${CMAKE_SOURCE_DIR}/bench/service_load.cpp)
 target_link_libraries(service_load PRIVATE tetcollide::core tc_test_support tetcollide_client
-                                           CLI11::CLI11 nlohmann_json::nlohmann_json)
+                                           tetcollide_process CLI11::CLI11
+                                           nlohmann_json::nlohmann_json)
 target_compile_definitions(service_load PRIVATE TC_SOURCE_DIR="${CMAKE_SOURCE_DIR}")
 add_dependencies(service_load tetcollided)
 tc_set_warnings(service_load)

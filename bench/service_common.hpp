@@ -4,10 +4,7 @@
 #pragma once
 
 #include <dirent.h>
-#include <fcntl.h>
 #include <signal.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "tetcollide/client.hpp"
 
@@ -95,29 +93,18 @@ inline ProcFigures proc_figures(pid_t pid) {
 
 /// A daemon started by the benchmark (stdout to /dev/null), SIGTERMed at the end.
 struct Daemon {
+  tc::process::Child child;
   pid_t pid = -1;
   ~Daemon() {
-    if (pid > 0) {
-      kill(pid, SIGTERM);
-      int status = 0;
-      waitpid(pid, &status, 0);
-    }
+    child.signal(SIGTERM);
+    child.wait();
   }
   bool start(const std::string& path, std::uint32_t domain, const std::string& config) {
-    const pid_t parent = getpid();
-    pid = fork();
-    if (pid < 0) return false;
-    if (pid == 0) {
-      prctl(PR_SET_PDEATHSIG, SIGKILL);
-      if (getppid() != parent) _exit(127);
-      const int null = open("/dev/null", O_WRONLY);
-      dup2(null, STDOUT_FILENO);
-      const std::string d = std::to_string(domain);
-      execl(path.c_str(), path.c_str(), "--config", config.c_str(), "--domain", d.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    return true;
+    const Status st =
+        child.start({.argv = {path, "--config", config, "--domain", std::to_string(domain)},
+                     .out = "/dev/null"});
+    pid = child.pid();
+    return st.ok();
   }
   [[nodiscard]] double rss_mb() const { return proc_figures(pid).rss_mb; }
   /// CPU time (user + system, every thread) the daemon has used so far, seconds.

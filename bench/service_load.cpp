@@ -32,8 +32,6 @@
 // The tool starts the --daemon on a private domain (loopback Cyclone config) and stops it
 // at the end; it reads the daemon's /proc figures, so it does not use a running one.
 #include <signal.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -185,24 +183,14 @@ int run_worker(const WorkerArgs& a) {
 
 /// A worker process started by the tool.
 struct Worker {
-  pid_t pid = -1;
+  tc::process::Child child;  ///< SIGKILLed if still running when the tool ends
   std::filesystem::path out;
   std::filesystem::path err;
   bool start(const std::vector<std::string>& args) {
-    const pid_t parent = getpid();
-    pid = fork();
-    if (pid < 0) return false;
-    if (pid == 0) {
-      prctl(PR_SET_PDEATHSIG, SIGKILL);
-      if (getppid() != parent) _exit(127);
-      if (!freopen(out.c_str(), "w", stdout) || !freopen(err.c_str(), "w", stderr)) _exit(127);
-      std::vector<char*> argv;
-      for (const auto& s : args) argv.push_back(const_cast<char*>(s.c_str()));
-      argv.push_back(nullptr);
-      execv("/proc/self/exe", argv.data());
-      _exit(127);
-    }
-    return true;
+    return child
+        .start(
+            {.argv = args, .program = "/proc/self/exe", .out = out, .err = err, .truncate = true})
+        .ok();
   }
   [[nodiscard]] bool says(const std::string& marker) const {
     std::ifstream in(err);
@@ -211,27 +199,14 @@ struct Worker {
       if (line == marker) return true;
     return false;
   }
-  int exit_status = 0;  ///< waitpid status once exited
-  [[nodiscard]] bool exited() {
-    return pid > 0 && waitpid(pid, &exit_status, WNOHANG) == pid && ((pid = -1), true);
-  }
-  int wait() {
-    int status = 0;
-    if (pid > 0 && waitpid(pid, &status, 0) == pid) pid = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  [[nodiscard]] int exit_status() const { return child.status(); }  ///< waitpid status once exited
+  [[nodiscard]] bool exited() { return child.running() && child.exited(); }
+  int wait() { return tc::process::exit_code(child.wait()); }
   [[nodiscard]] nlohmann::json summary() const {
     std::ifstream in(out);
     std::string line;
     std::getline(in, line);
     return line.empty() ? nlohmann::json() : nlohmann::json::parse(line, nullptr, false);
-  }
-  ~Worker() {
-    if (pid > 0) {
-      kill(pid, SIGKILL);
-      int status = 0;
-      waitpid(pid, &status, 0);
-    }
   }
 };
 
@@ -254,6 +229,23 @@ std::vector<std::unique_ptr<Worker>> start_workers(const std::filesystem::path& 
   return workers;
 }
 
+/// Waits for every worker to exit: the summaries they printed. `failed` counts a worker
+/// that exited non-zero and one without a summary (so once or twice).
+std::vector<nlohmann::json> wait_workers(std::vector<std::unique_ptr<Worker>>& workers,
+                                         int& failed) {
+  std::vector<nlohmann::json> summaries;
+  for (auto& w : workers) {
+    failed += w->wait() != 0 ? 1 : 0;
+    auto s = w->summary();
+    if (s.is_discarded() || s.is_null()) {
+      ++failed;
+      continue;
+    }
+    summaries.push_back(std::move(s));
+  }
+  return summaries;
+}
+
 /// Waits until every worker has registered its objects, then lets them all stream at
 /// once; false when one exits first or after `timeout`.
 bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::duration timeout) {
@@ -265,7 +257,7 @@ bool wait_streaming(std::vector<std::unique_ptr<Worker>>& workers, Clock::durati
     for (auto& w : workers) {
       if (w->exited()) {
         std::fprintf(stderr, "worker %s exited before streaming (status %d)\n", w->err.c_str(),
-                     w->exit_status);
+                     w->exit_status());
         return false;
       }
       all = all && w->says("registered");
@@ -313,13 +305,7 @@ int run_load(std::uint32_t domain, pid_t daemon, const LoadArgs& a, bool json) {
   double max_publish_ms = 0.0;
   double seconds = 0.0;
   int failed = 0;
-  for (auto& w : workers) {
-    failed += w->wait() != 0 ? 1 : 0;
-    const auto s = w->summary();
-    if (s.is_discarded() || s.is_null()) {
-      ++failed;
-      continue;
-    }
+  for (const auto& s : wait_workers(workers, failed)) {
     for (const double v : s["latency_ms"]) latency.push_back(v);
     published += s["frames_published"].get<std::int64_t>();
     answered += s["frames_answered"].get<std::int64_t>();
@@ -432,15 +418,8 @@ int run_soak(std::uint32_t domain, pid_t daemon, double seconds, int cycles, boo
   }
   std::int64_t answered = 0;
   int failed = 0;
-  for (auto& w : workers) {
-    failed += w->wait() != 0 ? 1 : 0;
-    const auto s = w->summary();
-    if (s.is_discarded() || s.is_null()) {
-      ++failed;
-      continue;
-    }
+  for (const auto& s : wait_workers(workers, failed))
     answered += s["frames_answered"].get<std::int64_t>();
-  }
   constexpr int kWarmup = 5;  // cycles before the reference sample
   const auto& first = samples[std::min(kWarmup, cycles) - 1];
   const auto& last = samples.back();

@@ -115,7 +115,7 @@ int write_csv(const std::string& path, const std::vector<Row>& rows) {
 }
 
 int write_plot(const std::string& path, const std::vector<Row>& rows) {
-  LogLogPlot plot;
+  viz::LogLogPlot plot;
   plot.title = "Depth maps: error against run time";
   plot.x_label = "time per frame (ms, log scale)";
   plot.y_label = "error, % of the object's largest depth (log scale)";
@@ -170,7 +170,7 @@ int write_plot(const std::string& path, const std::vector<Row>& rows) {
   }
   std::ofstream out(path);
   if (!out) return report_error(path + ": cannot open file", kExitFailure);
-  out << render_svg(plot);
+  out << viz::plot_loglog_svg(plot);
   out.close();
   if (!out) return report_error(path + ": write failed", kExitFailure);
   return kExitOk;

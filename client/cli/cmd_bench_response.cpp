@@ -125,7 +125,7 @@ int write_csv(const std::string& path, const std::vector<Row>& rows) {
 }
 
 int write_plot(const std::string& path, const std::vector<Row>& rows) {
-  LogLogPlot plot;
+  viz::LogLogPlot plot;
   plot.title = "Response time against colliding points (paper Fig. 16)";
   plot.x_label = "colliding points (nodes of one object inside the other)";
   plot.y_label = "time per frame (ms)";
@@ -146,7 +146,7 @@ int write_plot(const std::string& path, const std::vector<Row>& rows) {
   }
   std::ofstream out(path);
   if (!out) return report_error("cannot write " + path, kExitFailure);
-  out << render_svg(plot);
+  out << viz::plot_loglog_svg(plot);
   return out ? kExitOk : report_error("cannot write " + path, kExitFailure);
 }
 

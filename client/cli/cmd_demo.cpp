@@ -368,17 +368,6 @@ Status write_stage_times(const std::filesystem::path& out, const std::string& sc
     csv << t.csv;
   }
   const std::string title = "Collision time per frame by stage (" + scene + ")";
-  {
-    std::ofstream svg(out / "stage_times.svg");
-    svg << demo::line_chart_svg(title, "frame", "milliseconds", t.frames,
-                                {{"round trip (client)", "#000000", t.round_trip},
-                                 {"compute (pipeline)", "#7f7f7f", t.compute},
-                                 {"broad phase", "#1f77b4", t.broad},
-                                 {"narrow phase", "#ff7f0e", t.narrow},
-                                 {"depth", "#2ca02c", t.depth},
-                                 {"response", "#d62728", t.response},
-                                 {"publish", "#9467bd", t.publish}});
-  }
   const std::vector<viz::Series> lines{{"round trip (client)", t.round_trip, {0, 0, 0}},
                                        {"compute (pipeline)", t.compute, {127, 127, 127}},
                                        {"broad phase", t.broad, {31, 119, 180}},
@@ -392,6 +381,10 @@ Status write_stage_times(const std::filesystem::path& out, const std::string& sc
   po.y_label = "milliseconds";
   po.width = 1000;
   po.height = 500;
+  {
+    std::ofstream svg(out / "stage_times.svg");
+    svg << viz::plot_lines_svg(t.frames, lines, po);
+  }
   return viz::write_png(viz::plot_lines(t.frames, lines, po), (out / "stage_times.png").string());
 }
 

@@ -1,17 +1,9 @@
 #include "demo_support.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
-#include <thread>
 
 #ifndef TC_SOURCE_DIR
 #define TC_SOURCE_DIR ""
@@ -63,66 +55,23 @@ ChildProcess::~ChildProcess() {
 Status ChildProcess::start(const std::vector<std::string>& argv, const std::filesystem::path& log) {
   if (argv.empty() || !std::filesystem::exists(argv[0]))
     return Error{ErrorCode::kIo, "program not found: " + (argv.empty() ? std::string() : argv[0])};
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (fd < 0) return Error{ErrorCode::kIo, "cannot open " + log.string()};
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) {
-    close(fd);
-    return Error{ErrorCode::kIo, "fork failed"};
-  }
-  if (pid == 0) {
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (getppid() != parent) _exit(127);
-    // The demo's own signal dispositions must not leak into the daemon.
-    signal(SIGINT, SIG_DFL);
-    signal(SIGTERM, SIG_DFL);
-    sigset_t none;
-    sigemptyset(&none);
-    sigprocmask(SIG_SETMASK, &none, nullptr);
-    // Ctrl-C in the terminal reaches the demo only; the demo stops the daemon.
-    setpgid(0, 0);
-    dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  close(fd);
-  pid_ = pid;
-  return {};
+  // The demo's own signal dispositions must not leak into the daemon, and Ctrl-C in the
+  // terminal reaches the demo only; the demo stops the daemon.
+  return child_.start({.argv = argv,
+                       .out = log,
+                       .err = log,
+                       .parent_death_signal = SIGTERM,
+                       .reset_signals = true,
+                       .own_process_group = true});
 }
 
 bool ChildProcess::alive() {
-  if (pid_ <= 0) return false;
-  int status = 0;
-  if (waitpid(pid_, &status, WNOHANG) == pid_) {
-    pid_ = -1;
-    return false;
-  }
-  return true;
+  return !child_.exited();
 }
 
 int ChildProcess::stop(int sig, std::chrono::milliseconds timeout) {
-  if (pid_ <= 0) return -1;
-  kill(pid_, sig);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  int status = 0;
-  for (;;) {
-    const pid_t r = waitpid(pid_, &status, WNOHANG);
-    if (r == pid_ || r < 0) break;
-    if (std::chrono::steady_clock::now() >= deadline) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, &status, 0);
-      pid_ = -1;
-      return -1;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  pid_ = -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const std::optional<int> status = child_.stop(sig, timeout);
+  return status ? process::exit_code(*status) : -1;
 }
 
 Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>& entries) {
@@ -141,66 +90,6 @@ Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>&
   out.close();
   if (!out) return Error{ErrorCode::kIo, "cannot write " + path.string()};
   return {};
-}
-
-std::string line_chart_svg(const std::string& title, const std::string& x_label,
-                           const std::string& y_label, const std::vector<double>& x,
-                           const std::vector<Series>& series) {
-  constexpr double kW = 960, kH = 540, kL = 70, kR = 190, kT = 40, kB = 60;
-  double xmax = 1.0;
-  double xmin = 0.0;
-  if (!x.empty()) {
-    xmin = *std::min_element(x.begin(), x.end());
-    xmax = std::max(xmin + 1.0, *std::max_element(x.begin(), x.end()));
-  }
-  double ymax = 0.0;
-  for (const auto& s : series)
-    for (const double v : s.y)
-      if (std::isfinite(v)) ymax = std::max(ymax, v);
-  // A "nice" top: 1, 2 or 5 times a power of ten.
-  double step = std::pow(10.0, std::floor(std::log10(std::max(ymax, 1e-9) / 5.0)));
-  for (const double m : {1.0, 2.0, 5.0, 10.0})
-    if (ymax / (m * step) <= 6.0) {
-      step *= m;
-      break;
-    }
-  const double ytop = std::max(step, std::ceil(ymax / step) * step);
-  const auto px = [&](double v) { return kL + (v - xmin) / (xmax - xmin) * (kW - kL - kR); };
-  const auto py = [&](double v) { return kH - kB - v / ytop * (kH - kT - kB); };
-  std::ostringstream s;
-  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kW << "\" height=\"" << kH
-    << "\" font-family=\"sans-serif\" font-size=\"13\">\n<rect width=\"100%\" height=\"100%\" "
-       "fill=\"white\"/>\n";
-  s << "<text x=\"" << kW / 2 << "\" y=\"24\" text-anchor=\"middle\" font-size=\"16\">" << title
-    << "</text>\n";
-  for (double v = 0.0; v <= ytop * 1.0001; v += step) {
-    s << "<line x1=\"" << kL << "\" x2=\"" << kW - kR << "\" y1=\"" << py(v) << "\" y2=\"" << py(v)
-      << "\" stroke=\"#ddd\"/>\n<text x=\"" << kL - 6 << "\" y=\"" << py(v) + 4
-      << "\" text-anchor=\"end\">" << v << "</text>\n";
-  }
-  const double xstep = std::pow(10.0, std::floor(std::log10((xmax - xmin) / 2.0)));
-  for (double v = std::ceil(xmin / xstep) * xstep; v <= xmax; v += xstep)
-    s << "<text x=\"" << px(v) << "\" y=\"" << kH - kB + 18 << "\" text-anchor=\"middle\">" << v
-      << "</text>\n";
-  s << "<rect x=\"" << kL << "\" y=\"" << kT << "\" width=\"" << kW - kL - kR << "\" height=\""
-    << kH - kT - kB << "\" fill=\"none\" stroke=\"#444\"/>\n";
-  s << "<text x=\"" << (kL + kW - kR) / 2 << "\" y=\"" << kH - 18 << "\" text-anchor=\"middle\">"
-    << x_label << "</text>\n";
-  s << "<text transform=\"translate(18," << (kT + kH - kB) / 2
-    << ") rotate(-90)\" text-anchor=\"middle\">" << y_label << "</text>\n";
-  for (std::size_t i = 0; i < series.size(); ++i) {
-    const auto& ser = series[i];
-    s << "<polyline fill=\"none\" stroke=\"" << ser.color << "\" stroke-width=\"1.2\" points=\"";
-    for (std::size_t k = 0; k < ser.y.size() && k < x.size(); ++k)
-      if (std::isfinite(ser.y[k])) s << px(x[k]) << "," << py(std::min(ser.y[k], ytop)) << " ";
-    s << "\"/>\n";
-    const double ly = kT + 10 + 20.0 * static_cast<double>(i);
-    s << "<line x1=\"" << kW - kR + 12 << "\" x2=\"" << kW - kR + 36 << "\" y1=\"" << ly
-      << "\" y2=\"" << ly << "\" stroke=\"" << ser.color << "\" stroke-width=\"3\"/>\n<text x=\""
-      << kW - kR + 42 << "\" y=\"" << ly + 4 << "\">" << ser.name << "</text>\n";
-  }
-  s << "</svg>\n";
-  return s.str();
 }
 
 double percentile(std::vector<double> values, double q) {

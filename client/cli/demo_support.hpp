@@ -1,5 +1,5 @@
 // Plumbing of `tetcollide demo` (cmd_demo.cpp): finding scenes and programs, a private
-// tetcollided child process, and the output files (VTK series, stage-time CSV/SVG).
+// tetcollided child process, and the output files (VTK series).
 #pragma once
 
 #include <sys/types.h>
@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
 #include "core/common/result.hpp"
 #include "core/io/mesh_io.hpp"
 
@@ -44,10 +45,10 @@ class ChildProcess {
   bool alive();
   /// Sends `sig`, then waits up to `timeout` (SIGKILL after). Returns the exit code, or -1.
   int stop(int sig = 15, std::chrono::milliseconds timeout = std::chrono::seconds(10));
-  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] pid_t pid() const { return child_.pid(); }
 
  private:
-  pid_t pid_ = -1;
+  process::Child child_;
 };
 
 /// A ParaView collection (.pvd) of time steps.
@@ -56,17 +57,6 @@ struct PvdEntry {
   std::string file;  ///< relative to the .pvd
 };
 Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>& entries);
-
-/// One curve of a line chart.
-struct Series {
-  std::string name;
-  std::string color;  ///< SVG colour
-  std::vector<double> y;
-};
-/// A standalone SVG line chart (x = index, shared y axis from 0).
-std::string line_chart_svg(const std::string& title, const std::string& x_label,
-                           const std::string& y_label, const std::vector<double>& x,
-                           const std::vector<Series>& series);
 
 /// Nearest-rank percentile (q in [0, 1]); 0 for an empty list.
 double percentile(std::vector<double> values, double q);

@@ -132,5 +132,9 @@ struct PlotOptions {
 /// legend. Empty input gives axes with a default 0..1 range.
 Image plot_lines(std::span<const double> x, std::span<const Series> series,
                  const PlotOptions& options);
+/// The same chart as a standalone SVG document (options.width x options.height pixels,
+/// the same layout: ticks, labels, bands, lines, legend).
+std::string plot_lines_svg(std::span<const double> x, std::span<const Series> series,
+                           const PlotOptions& options);
 
 }  // namespace tc::viz

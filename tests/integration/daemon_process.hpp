@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "child_process.hpp"
+
 namespace tc::itest {
 
 /// A domain id no other test process uses at the same time: derived from the pid, in
@@ -50,9 +52,9 @@ class DaemonProcess {
   /// SIGKILL, no clean-up by the daemon.
   void kill_hard();
 
-  [[nodiscard]] bool running() const { return pid_ > 0; }
+  [[nodiscard]] bool running() const { return child_.running(); }
   /// Process id while running (to signal or to read /proc), else -1.
-  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] pid_t pid() const { return child_.pid(); }
   [[nodiscard]] std::string log_text() const;
   [[nodiscard]] std::filesystem::path log_path() const { return log_; }
   /// Waits until the log contains `text`. False on timeout.
@@ -64,27 +66,23 @@ class DaemonProcess {
   std::filesystem::path log_;
   std::uint32_t domain_;
   std::vector<std::string> prefix_;
-  pid_t pid_ = -1;
+  process::Child child_;  ///< SIGKILLed with this object
   int starts_ = 0;
 };
 
 /// Any program run in the background (the recorder), killed with the test.
 class ChildProcess {
  public:
-  ChildProcess() = default;
-  ~ChildProcess();
-  ChildProcess(const ChildProcess&) = delete;
-  ChildProcess& operator=(const ChildProcess&) = delete;
   /// Starts `argv` with stdout and stderr appended to the given files.
   bool start(const std::vector<std::string>& argv, const std::filesystem::path& out,
              const std::filesystem::path& err);
   /// Sends `sig`, waits for the exit; returns the exit code, or -1 (killed, timeout).
   int stop(int sig, std::chrono::milliseconds timeout = std::chrono::seconds(20));
   /// Process id while running, else -1.
-  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] pid_t pid() const { return child_.pid(); }
 
  private:
-  pid_t pid_ = -1;
+  process::Child child_;  ///< SIGKILLed with this object
 };
 
 /// Waits until the file contains `text`. False on timeout.

@@ -2,7 +2,8 @@
 // "Performance"): on a 55k-node mesh the march is bound by memory latency, so
 //  - nodes are renumbered once per topology in breadth-first order from the boundary
 //    (boundary nodes first, then layer after layer): the front of the march and the
-//    closest points it carries stay in a compact range of memory;
+//    closest points it carries stay in a compact range of memory (depth_layout.cpp
+//    builds that layout; this file holds the per-frame march and reads it);
 //  - the march reads one 16-byte record per node {x, y, z, key} in float, coordinates
 //    relative to a node of the object (so offsets of 1e6 cost no precision); the sign
 //    bit of `key` marks a final node, so "is the neighbour final?" costs nothing;
@@ -24,6 +25,7 @@
 #include <variant>
 
 #include "core/depth/boundary_bvh.hpp"
+#include "core/depth/depth_layout.hpp"
 #include "core/depth/point_simplex_distance.hpp"
 #include "core/depth/priority_queues.hpp"
 
@@ -127,17 +129,6 @@ constexpr bool carries_point(Mode m) {
          m == Mode::kFeatureNearStarts;
 }
 
-Csr csr_from_rows(const std::vector<std::vector<Index>>& rows) {
-  Csr csr;
-  csr.offsets.reserve(rows.size() + 1);
-  csr.offsets.push_back(0);
-  for (const auto& r : rows) {
-    csr.indices.insert(csr.indices.end(), r.begin(), r.end());
-    csr.offsets.push_back(static_cast<Index>(csr.indices.size()));
-  }
-  return csr;
-}
-
 using QueueVariant = std::variant<detail::BucketQueue, detail::RadixHeap, detail::BinaryHeapQueue>;
 
 QueueVariant make_queue(const DepthSolverOptions& options) {
@@ -157,28 +148,8 @@ QueueVariant make_queue(const DepthSolverOptions& options) {
 template <int D>
 struct BasicDepthSolver<D>::Impl {
   DepthSolverOptions options;
-  Index n = 0;
-  // Internal numbering: [0, num_boundary) boundary nodes, then breadth-first layers,
-  // then used nodes no edge path reaches (none in a valid mesh): [0, num_used); then
-  // orphans.
-  Index num_boundary = 0;
-  Index num_used = 0;
-  std::vector<Index> perm;  ///< internal -> original
-  std::vector<Index> inv;   ///< original -> internal
-  Csr adjacency;            ///< internal indices
-  std::vector<Element> elements;
-  BoundarySurface<D> surface;                       ///< original node indices
-  std::vector<std::array<Index, D>> simplices_int;  ///< internal node indices
-  /// The one feature across side j of each feature (D = 3: edge j of a triangle;
-  /// D = 2: endpoint j of a segment), or -1 when there is none or several (non-manifold:
-  /// then the CSR lists are read).
-  std::vector<std::array<Index, D>> across;
-  /// The node of across[t][j] that is not on side j (the "far" node), internal index.
-  std::vector<std::array<Index, D>> across_far;
-  Csr vertex_simplices_int;               ///< num_boundary rows
-  std::vector<Index> seed_simplex;        ///< num_boundary: one incident simplex
-  std::vector<std::uint8_t> is_boundary;  ///< original
-  std::vector<Index> used_original;       ///< sorted original used nodes
+  /// The topology's numbering and features, built once (depth_layout.hpp).
+  const detail::DepthLayout<D> layout;
 
   // Per-frame buffers.
   std::vector<Rec<D>> rec;     ///< internal
@@ -203,7 +174,6 @@ struct BasicDepthSolver<D>::Impl {
   /// fills only the features it reads).
   std::vector<std::uint32_t> frame_mark;
   std::uint32_t frame_stamp = 0;
-  std::vector<Index> all_boundary;  ///< 0 .. num_boundary - 1: the seeds of a whole run
   // Local lazy runs (LazyRegion::kLocal): the region is the nodes reached from the
   // marked nodes by edges without leaving the cells (of side `margin`) next to a cell
   // holding a marked node.
@@ -228,118 +198,10 @@ struct BasicDepthSolver<D>::Impl {
   QueueVariant queue;
   BoundaryBvh<D> bvh;
 
-  void build(std::span<const Element> elems, const TopologyOf<D>& topo) {
-    n = topo.num_nodes;
-    const auto nn = static_cast<std::size_t>(n);
-    elements.assign(elems.begin(), elems.end());
-    is_boundary = topo.is_boundary_node;
-    std::vector<std::uint8_t> used(nn, 0);
-    for (const Element& e : elements)
-      for (const Index v : e) used[v] = 1;
-    for (Index v = 0; v < n; ++v)
-      if (used[v]) used_original.push_back(v);
-
-    // Boundary nodes in breadth-first order over the boundary surface (so that nodes
-    // near each other on the surface are near each other in memory), each component
-    // started from its smallest node.
-    const BoundarySurface<D> original = build_boundary_surface(topo);
-    inv.assign(nn, -1);
-    perm.reserve(nn);
-    for (const Index seed : topo.boundary_nodes) {
-      if (inv[seed] >= 0) continue;
-      std::size_t head = perm.size();
-      inv[seed] = static_cast<Index>(perm.size());
-      perm.push_back(seed);
-      for (; head < perm.size(); ++head)
-        for (const Index t : original.vertex_simplices.row(perm[head]))
-          for (const Index v : original.simplices[t])
-            if (inv[v] < 0) {
-              inv[v] = static_cast<Index>(perm.size());
-              perm.push_back(v);
-            }
-    }
-    num_boundary = static_cast<Index>(perm.size());
-    for (std::size_t head = 0; head < perm.size(); ++head)
-      for (const Index v : topo.node_adjacency.row(perm[head]))
-        if (inv[v] < 0) {
-          inv[v] = static_cast<Index>(perm.size());
-          perm.push_back(v);
-        }
-    for (const Index v : used_original)
-      if (inv[v] < 0) {
-        inv[v] = static_cast<Index>(perm.size());
-        perm.push_back(v);
-      }
-    num_used = static_cast<Index>(perm.size());
-    for (Index v = 0; v < n; ++v)
-      if (inv[v] < 0) {
-        inv[v] = static_cast<Index>(perm.size());
-        perm.push_back(v);
-      }
-
-    // Adjacency in internal numbering, written straight into CSR (no per-node vectors).
-    adjacency.offsets.assign(nn + 1, 0);
-    for (Index i = 0; i < n; ++i)
-      adjacency.offsets[i + 1] =
-          adjacency.offsets[i] + static_cast<Index>(topo.node_adjacency.row(perm[i]).size());
-    adjacency.indices.resize(static_cast<std::size_t>(adjacency.offsets[nn]));
-    for (Index i = 0; i < n; ++i) {
-      Index* row = adjacency.indices.data() + adjacency.offsets[i];
-      Index k = 0;
-      for (const Index v : topo.node_adjacency.row(perm[i])) row[k++] = inv[v];
-      std::sort(row, row + k);
-    }
-
-    // Features renumbered in the order of their smallest internal node, so features
-    // near each other on the surface are near each other in memory.
-    std::vector<std::pair<std::array<Index, D>, Index>> keyed;
-    keyed.reserve(original.simplices.size());
-    for (std::size_t t = 0; t < original.simplices.size(); ++t) {
-      std::array<Index, D> key;
-      for (int k = 0; k < D; ++k) key[k] = inv[original.simplices[t][k]];
-      std::sort(key.begin(), key.end());
-      keyed.emplace_back(key, static_cast<Index>(t));
-    }
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<std::array<Index, D>> ordered;
-    ordered.reserve(keyed.size());
-    for (const auto& kt : keyed) ordered.push_back(original.simplices[kt.second]);
-    surface = build_boundary_surface<D>(n, std::move(ordered));
-    simplices_int.resize(surface.simplices.size());
-    for (std::size_t t = 0; t < surface.simplices.size(); ++t)
-      for (int k = 0; k < D; ++k) simplices_int[t][k] = inv[surface.simplices[t][k]];
-    across.assign(surface.simplices.size(), {});
-    across_far.assign(surface.simplices.size(), {});
-    for (std::size_t t = 0; t < surface.simplices.size(); ++t)
-      for (int j = 0; j < D; ++j) {
-        across[t][j] = -1;
-        across_far[t][j] = -1;
-        std::vector<Index> others;
-        if constexpr (D == 3) {
-          const auto row = surface.edge_simplices.row(static_cast<Index>(3 * t + j));
-          others.assign(row.begin(), row.end());
-        } else {
-          for (const Index o : surface.vertex_simplices.row(surface.simplices[t][j]))
-            if (o != static_cast<Index>(t)) others.push_back(o);
-        }
-        if (others.size() != 1) continue;
-        across[t][j] = others[0];
-        // Side j of t: nodes j and j + 1 (3D edge) or node j (2D endpoint).
-        for (const Index v : surface.simplices[others[0]]) {
-          const bool on_side =
-              v == surface.simplices[t][j] || (D == 3 && v == surface.simplices[t][(j + 1) % D]);
-          if (!on_side) across_far[t][j] = inv[v];
-        }
-      }
-    std::vector<std::vector<Index>> ring(static_cast<std::size_t>(num_boundary));
-    seed_simplex.assign(static_cast<std::size_t>(num_boundary), -1);
-    for (Index b = 0; b < num_boundary; ++b) {
-      const auto row = surface.vertex_simplices.row(perm[b]);
-      ring[b].assign(row.begin(), row.end());
-      if (!row.empty()) seed_simplex[b] = row[0];
-    }
-    vertex_simplices_int = csr_from_rows(ring);
-
+  // The layout of the topology, then the per-frame buffers sized for it.
+  Impl(std::span<const Element> elems, const TopologyOf<D>& topo, DepthSolverOptions opts)
+      : options(opts), layout(elems, topo) {
+    const auto nn = static_cast<std::size_t>(layout.n);
     rec.assign(nn, Rec<D>{});
     for (auto& r : rec) r.key = kInfF;
     feature.assign(nn, -1);
@@ -349,11 +211,9 @@ struct BasicDepthSolver<D>::Impl {
       point.assign(nn, Vecf<D>::Zero());
     depth.assign(nn, kInf);
     anchor.assign(nn, -1);
-    all_boundary.resize(static_cast<std::size_t>(num_boundary));
-    for (Index b = 0; b < num_boundary; ++b) all_boundary[b] = b;
     if (options.method == DepthMethod::kCffm) {  // CPFM reads no feature records
-      frame_mark.assign(surface.simplices.size(), 0);
-      frames.resize(surface.simplices.size());
+      frame_mark.assign(layout.surface.simplices.size(), 0);
+      frames.resize(layout.surface.simplices.size());
     }
     region_mark.assign(nn, 0);
     tested_mark.assign(nn, 0);
@@ -363,10 +223,10 @@ struct BasicDepthSolver<D>::Impl {
   }
 
   Status check_size(const Points& positions) const {
-    if (positions.cols() != n)
+    if (positions.cols() != layout.n)
       return Error{ErrorCode::kInvalidArgument,
                    "positions have " + std::to_string(positions.cols()) +
-                       " columns, the topology has " + std::to_string(n) + " nodes"};
+                       " columns, the topology has " + std::to_string(layout.n) + " nodes"};
     return {};
   }
 
@@ -384,14 +244,16 @@ struct BasicDepthSolver<D>::Impl {
       std::fill(frame_mark.begin(), frame_mark.end(), 0u);
       frame_stamp = 1;
     }
-    if (num_used == 0) return {};
-    ref = p.col(perm[0]);
-    if (!ref.allFinite()) return non_finite(perm[0]);
+    if (layout.num_used == 0) return {};
+    ref = p.col(layout.perm[0]);
+    if (!ref.allFinite()) return non_finite(layout.perm[0]);
     return {};
   }
 
   // Position of internal node i relative to the origin, in float (what the march reads).
-  Vecf<D> float_pos(Index i) const { return (cur->col(perm[i]) - ref).template cast<float>(); }
+  Vecf<D> float_pos(Index i) const {
+    return (cur->col(layout.perm[i]) - ref).template cast<float>();
+  }
 
   // Node i's record: position x (metres) relative to the origin, key +infinity.
   void store_rec(Index i, const Vecd<D>& x) {
@@ -402,7 +264,7 @@ struct BasicDepthSolver<D>::Impl {
 
   // Loads node i's record; false when a coordinate is not finite.
   bool load_rec(Index i) {
-    const Vecd<D> x = cur->col(perm[i]);
+    const Vecd<D> x = cur->col(layout.perm[i]);
     if (!x.allFinite()) return false;
     store_rec(i, x);
     return true;
@@ -411,14 +273,14 @@ struct BasicDepthSolver<D>::Impl {
   // Loads every used node's record (a whole run).
   Status gather(const Points& p) {
     if (Status st = begin_run(p); !st) return st;
-    for (Index i = 0; i < num_used; ++i)
-      if (!load_rec(i)) return non_finite(perm[i]);
+    for (Index i = 0; i < layout.num_used; ++i)
+      if (!load_rec(i)) return non_finite(layout.perm[i]);
     return {};
   }
 
   Status check_finite(const Points& positions) const {
     if (Status st = check_size(positions); !st) return st;
-    for (const Index v : used_original)
+    for (const Index v : layout.used_original)
       if (!positions.col(v).allFinite()) return non_finite(v);
     return {};
   }
@@ -430,9 +292,9 @@ struct BasicDepthSolver<D>::Impl {
     FeatureFrame& f = frames[t];
     if (frame_mark[t] == frame_stamp) return f;
     frame_mark[t] = frame_stamp;
-    for (int k = 0; k < D; ++k) f.c[k] = float_pos(simplices_int[t][k]);
+    for (int k = 0; k < D; ++k) f.c[k] = float_pos(layout.simplices_int[t][k]);
     for (int j = 0; j < D; ++j)
-      f.far[j] = across_far[t][j] >= 0 ? float_pos(across_far[t][j]) : f.c[j];
+      f.far[j] = layout.across_far[t][j] >= 0 ? float_pos(layout.across_far[t][j]) : f.c[j];
     if constexpr (D == 3) {
       f.normal = (f.c[1] - f.c[0]).cross(f.c[2] - f.c[0]);
     } else {
@@ -441,7 +303,7 @@ struct BasicDepthSolver<D>::Impl {
     // A local run reads features beyond its region, whose nodes were not checked.
     bool finite = f.normal.allFinite();
     for (int j = 0; j < D; ++j) finite = finite && f.far[j].allFinite();
-    if (!finite && bad_node < 0) bad_node = perm[simplices_int[t][0]];
+    if (!finite && bad_node < 0) bad_node = layout.perm[layout.simplices_int[t][0]];
     return f;
   }
 
@@ -452,7 +314,7 @@ struct BasicDepthSolver<D>::Impl {
 
   // CFFM, a whole run: every feature's record.
   void gather_frames() {
-    for (std::size_t t = 0; t < simplices_int.size(); ++t) frame(static_cast<Index>(t));
+    for (std::size_t t = 0; t < layout.simplices_int.size(); ++t) frame(static_cast<Index>(t));
   }
 
   // Offers what u holds to its neighbours (the paper's update rule: a node takes it
@@ -461,8 +323,8 @@ struct BasicDepthSolver<D>::Impl {
   template <Mode kMode, bool kLocal, class Push>
   void relax(Index u, Push&& push) {
     const Index f = feature[u];
-    const Index* it = adjacency.indices.data() + adjacency.offsets[u];
-    const Index* const end = adjacency.indices.data() + adjacency.offsets[u + 1];
+    const Index* it = layout.adjacency.indices.data() + layout.adjacency.offsets[u];
+    const Index* const end = layout.adjacency.indices.data() + layout.adjacency.offsets[u + 1];
     if constexpr (kMode == Mode::kPoint || carries_point(kMode)) {
       // Point propagation: CPFM's boundary node, or CFFM's closest point on the feature.
       const Vecf<D> xf = kMode == Mode::kPoint ? pos_of<D>(rec[f]) : point[u];
@@ -499,9 +361,9 @@ struct BasicDepthSolver<D>::Impl {
   // The paper's CFFM seeding: boundary node b offers every boundary feature around it.
   template <bool kLocal, class Push>
   void relax_ring(Index b, Push&& push) {
-    const auto ring = vertex_simplices_int.row(b);
-    for (Index k = adjacency.offsets[b]; k < adjacency.offsets[b + 1]; ++k) {
-      const Index v = adjacency.indices[k];
+    const auto ring = layout.vertex_simplices_int.row(b);
+    for (Index k = layout.adjacency.offsets[b]; k < layout.adjacency.offsets[b + 1]; ++k) {
+      const Index v = layout.adjacency.indices[k];
       if constexpr (kLocal)
         if (!inside(v)) continue;
       Rec<D>& r = rec[v];
@@ -556,7 +418,7 @@ struct BasicDepthSolver<D>::Impl {
                                            : static_cast<int>(FeatureLoc::kE01));
       if (loc < D) {
         // At a vertex: the features around it.
-        consider(vertex_simplices_int.row(simplices_int[s][loc]));
+        consider(layout.vertex_simplices_int.row(layout.simplices_int[s][loc]));
       } else {
         // On an edge or inside the feature: the features across its sides. Inside is a
         // local minimum, and so is an edge point when the face across it is not nearer,
@@ -568,9 +430,9 @@ struct BasicDepthSolver<D>::Impl {
         const FeatureFrame& fr = frame(s);
         const float side = fr.normal.dot(x - fr.c[0]);
         for (int j = 0; j < D; ++j) {
-          const Index t = across[s][j];
+          const Index t = layout.across[s][j];
           if (t < 0) {
-            consider(across_side(s, j));
+            consider(layout.across_side(s, j));
             continue;
           }
           if (t == prev) continue;
@@ -610,59 +472,37 @@ struct BasicDepthSolver<D>::Impl {
   // kFeatureMultiStart: after the descent from u's own feature, descend also from the
   // feature of every settled neighbour (each distinct feature once) and keep the
   // nearest result. Escapes the local minima a single walk stops in, at a price.
-  void multi_start(Index u) {
-    Index best_f = feature[u];
-    float best_key = rec[u].key;
-    Vecf<D> best_point = point[u];
-    constexpr int kMaxStarts = 64;
-    Index tried[kMaxStarts];
-    int count = 0;
-    tried[count++] = best_f;
-    for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
-      const Index v = adjacency.indices[k];
-      if (!settled_now(v)) continue;
-      const Index f = feature[v];
-      if (std::find(tried, tried + count, f) != tried + count) continue;
-      tried[count++] = f;
-      feature[u] = f;
-      descend<Mode::kFeatureMultiStart>(u);
-      if (rec[u].key < best_key) {
-        best_key = rec[u].key;
-        best_f = feature[u];
-        best_point = point[u];
-      }
-    }
-    feature[u] = best_f;
-    rec[u].key = best_key;
-    point[u] = best_point;
-  }
-
-  // kFeatureNearStarts: kMultiStart's extra walks, only from the settled neighbours'
+  // kFeatureNearStarts: the same extra walks, only from the settled neighbours'
   // features that are already nearly as near as the best result so far (distance at
   // most kNearStartSlack above it); the others almost never lead to a nearer minimum
   // (docs/DEPTH_MAPS.md, "CFFM variants", has the counts). Each distinct feature is
   // evaluated once (one point-to-feature distance) and walked from at most once.
-  void near_starts(Index u) {
-    constexpr float kSlack2 = (1.0f + kNearStartSlack) * (1.0f + kNearStartSlack);
+  template <Mode kMode>
+  void extra_starts(Index u) {
+    static_assert(kMode == Mode::kFeatureMultiStart || kMode == Mode::kFeatureNearStarts);
     Index best_f = feature[u];
     float best_key = rec[u].key;
     Vecf<D> best_point = point[u];
-    const Vecf<D> x = pos_of<D>(rec[u]);
+    [[maybe_unused]] const Vecf<D> x = pos_of<D>(rec[u]);
     constexpr int kMaxStarts = 64;
     Index tried[kMaxStarts];
     int count = 0;
     tried[count++] = best_f;
-    for (Index k = adjacency.offsets[u]; k < adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
-      const Index v = adjacency.indices[k];
+    for (Index k = layout.adjacency.offsets[u];
+         k < layout.adjacency.offsets[u + 1] && count < kMaxStarts; ++k) {
+      const Index v = layout.adjacency.indices[k];
       if (!settled_now(v)) continue;
       const Index f = feature[v];
       if (std::find(tried, tried + count, f) != tried + count) continue;
       tried[count++] = f;
-      Vecf<D> c[D];
-      load_corners(f, c);
-      if (simplex_distance<D, float>(x, c).sq_dist >= best_key * kSlack2) continue;
+      if constexpr (kMode == Mode::kFeatureNearStarts) {
+        constexpr float kSlack2 = (1.0f + kNearStartSlack) * (1.0f + kNearStartSlack);
+        Vecf<D> c[D];
+        load_corners(f, c);
+        if (simplex_distance<D, float>(x, c).sq_dist >= best_key * kSlack2) continue;
+      }
       feature[u] = f;
-      descend<Mode::kFeatureNearStarts>(u);
+      descend<kMode>(u);
       if (rec[u].key < best_key) {
         best_key = rec[u].key;
         best_f = feature[u];
@@ -680,16 +520,6 @@ struct BasicDepthSolver<D>::Impl {
     return is_final(rec[v].key) && (!local_run || region_mark[v] == region_stamp);
   }
 
-  // The features across side j of feature s.
-  std::span<const Index> across_side(Index s, int j) const {
-    if (across[s][j] >= 0) return {&across[s][j], 1};
-    if constexpr (D == 3) {
-      return surface.edge_simplices.row(3 * s + j);
-    } else {
-      return vertex_simplices_int.row(simplices_int[s][j]);
-    }
-  }
-
   // The march. The seeds (boundary nodes) are final at 0; then nodes are finalised in
   // queue order. A node is final when popped and never changes afterwards, so a lazy
   // run (which stops after some pop) is a prefix of the full run with the same seeds.
@@ -702,7 +532,7 @@ struct BasicDepthSolver<D>::Impl {
     settled_list.clear();
     for (const Index b : seed_nodes) {
       rec[b].key = -0.0f;
-      feature[b] = kMode == Mode::kPoint ? b : seed_simplex[b];
+      feature[b] = kMode == Mode::kPoint ? b : layout.seed_simplex[b];
       if constexpr (carries_point(kMode)) point[b] = pos_of<D>(rec[b]);
       settled_list.push_back(b);
       if (lazy && mark[b] == stamp) --remaining;
@@ -724,7 +554,7 @@ struct BasicDepthSolver<D>::Impl {
         // The march is bound by memory latency: fetch what the next pops will read.
         if (const Index a = q.peek(kPrefetchFar); a >= 0) {
           __builtin_prefetch(&rec[a]);
-          __builtin_prefetch(&adjacency.offsets[a]);
+          __builtin_prefetch(&layout.adjacency.offsets[a]);
           if constexpr (kMode != Mode::kPoint) __builtin_prefetch(&feature[a]);
         }
         if constexpr (kMode != Mode::kPoint) {
@@ -732,16 +562,16 @@ struct BasicDepthSolver<D>::Impl {
             const char* f = reinterpret_cast<const char*>(&frames[feature[a]]);
             __builtin_prefetch(f);
             __builtin_prefetch(f + sizeof(FeatureFrame) - 1);
-            __builtin_prefetch(&across[feature[a]]);
+            __builtin_prefetch(&layout.across[feature[a]]);
           }
         }
         if (const Index a = q.peek(kPrefetchNear); a >= 0)
-          __builtin_prefetch(adjacency.indices.data() + adjacency.offsets[a]);
+          __builtin_prefetch(layout.adjacency.indices.data() + layout.adjacency.offsets[a]);
       }
       if (is_final(rec[u].key)) continue;
       if constexpr (kMode != Mode::kPoint && kMode != Mode::kFeaturePaper) descend<kMode>(u);
-      if constexpr (kMode == Mode::kFeatureMultiStart) multi_start(u);
-      if constexpr (kMode == Mode::kFeatureNearStarts) near_starts(u);
+      if constexpr (kMode == Mode::kFeatureMultiStart || kMode == Mode::kFeatureNearStarts)
+        extra_starts<kMode>(u);
       rec[u].key = -rec[u].key;
       settled_list.push_back(u);
       if (lazy && mark[u] == stamp && --remaining == 0) break;
@@ -757,12 +587,13 @@ struct BasicDepthSolver<D>::Impl {
     const Index* list = settled_list.data();
     for (std::size_t j = 0; j < count; ++j) {
       // Two-stage prefetch: the original index, then the original position.
-      if (j + 16 < count) __builtin_prefetch(&perm[list[j + 16]]);
-      if (j + 8 < count) __builtin_prefetch(positions.data() + std::size_t{D} * perm[list[j + 8]]);
+      if (j + 16 < count) __builtin_prefetch(&layout.perm[list[j + 16]]);
+      if (j + 8 < count)
+        __builtin_prefetch(positions.data() + std::size_t{D} * layout.perm[list[j + 8]]);
       const Index i = list[j];
-      const Index o = perm[i];
+      const Index o = layout.perm[i];
       written.push_back(o);
-      if (i < num_boundary) {
+      if (i < layout.num_boundary) {
         depth[o] = 0.0;
         anchor[o] = o;
         continue;
@@ -770,15 +601,16 @@ struct BasicDepthSolver<D>::Impl {
       const Vecd<D> x = positions.col(o);
       if (cffm) {
         Vecd<D> c[D];
-        for (int k = 0; k < D; ++k) c[k] = positions.col(perm[simplices_int[feature[i]][k]]);
+        for (int k = 0; k < D; ++k)
+          c[k] = positions.col(layout.perm[layout.simplices_int[feature[i]][k]]);
         depth[o] = std::sqrt(simplex_distance<D, double>(x, c).sq_dist);
         int near = 0;  // the feature's corner nearest the node
         for (int k = 1; k < D; ++k)
           if ((x - c[k]).squaredNorm() < (x - c[near]).squaredNorm()) near = k;
-        anchor[o] = perm[simplices_int[feature[i]][near]];
+        anchor[o] = layout.perm[layout.simplices_int[feature[i]][near]];
       } else {
-        depth[o] = (x - positions.col(perm[feature[i]])).norm();
-        anchor[o] = perm[feature[i]];
+        depth[o] = (x - positions.col(layout.perm[feature[i]])).norm();
+        anchor[o] = layout.perm[feature[i]];
       }
     }
     settled = count;
@@ -842,9 +674,9 @@ struct BasicDepthSolver<D>::Impl {
     seeds.clear();
     Vecd<D> lo = Vecd<D>::Constant(kInf), hi = Vecd<D>::Constant(-kInf);
     for (const Index u : marked) {
-      const Vecd<D> x = cur->col(perm[u]);
+      const Vecd<D> x = cur->col(layout.perm[u]);
       if (!x.allFinite()) {
-        bad_node = perm[u];
+        bad_node = layout.perm[u];
         return false;
       }
       lo = lo.cwiseMin(x);
@@ -880,7 +712,8 @@ struct BasicDepthSolver<D>::Impl {
       return index;
     };
     // Mark the cells of the marked nodes, then dilate by `reach` along each axis in turn.
-    for (const Index u : marked) grid[static_cast<std::size_t>(cell_of(cur->col(perm[u])))] = 1;
+    for (const Index u : marked)
+      grid[static_cast<std::size_t>(cell_of(cur->col(layout.perm[u])))] = 1;
     std::int64_t stride = 1;
     for (int k = 0; k < D; ++k) {
       for (int pass = 0; pass < reach; ++pass) {
@@ -900,26 +733,26 @@ struct BasicDepthSolver<D>::Impl {
       if (tested_mark[u] == region_stamp) continue;
       tested_mark[u] = region_mark[u] = region_stamp;
       region.push_back(u);
-      store_rec(u, cur->col(perm[u]));
+      store_rec(u, cur->col(layout.perm[u]));
     }
     if (region.size() > limit) return false;
     for (std::size_t head = 0; head < region.size(); ++head) {
       // The flood is bound by memory latency: fetch the marks and indices of the
       // neighbours of a node a few places ahead, and their positions nearer.
       if (head + kRegionPrefetchFar < region.size())
-        for (const Index w : adjacency.row(region[head + kRegionPrefetchFar])) {
+        for (const Index w : layout.adjacency.row(region[head + kRegionPrefetchFar])) {
           __builtin_prefetch(&tested_mark[w]);
-          __builtin_prefetch(&perm[w]);
+          __builtin_prefetch(&layout.perm[w]);
         }
       if (head + kRegionPrefetchNear < region.size())
-        for (const Index w : adjacency.row(region[head + kRegionPrefetchNear]))
-          __builtin_prefetch(cur->data() + std::size_t{D} * perm[w]);
-      for (const Index v : adjacency.row(region[head])) {
+        for (const Index w : layout.adjacency.row(region[head + kRegionPrefetchNear]))
+          __builtin_prefetch(cur->data() + std::size_t{D} * layout.perm[w]);
+      for (const Index v : layout.adjacency.row(region[head])) {
         if (tested_mark[v] == region_stamp) continue;
         tested_mark[v] = region_stamp;
-        const Vecd<D> x = cur->col(perm[v]);
+        const Vecd<D> x = cur->col(layout.perm[v]);
         if (!x.allFinite()) {
-          bad_node = perm[v];
+          bad_node = layout.perm[v];
           return false;
         }
         const std::int64_t c = cell_of(x);
@@ -931,7 +764,7 @@ struct BasicDepthSolver<D>::Impl {
       }
     }
     for (const Index v : region)
-      if (v < num_boundary) seeds.push_back(v);
+      if (v < layout.num_boundary) seeds.push_back(v);
     std::sort(seeds.begin(), seeds.end());
     return true;
   }
@@ -946,8 +779,8 @@ struct BasicDepthSolver<D>::Impl {
   Status run_local(const Points& positions, std::span<const Index> marked_elements) {
     double side = 0.0;
     for (const Index e : marked_elements) {
-      Vecd<D> lo = positions.col(elements[e][0]), hi = lo;
-      for (const Index v : elements[e]) {
+      Vecd<D> lo = positions.col(layout.elements[e][0]), hi = lo;
+      for (const Index v : layout.elements[e]) {
         lo = lo.cwiseMin(positions.col(v));
         hi = hi.cwiseMax(positions.col(v));
       }
@@ -960,7 +793,7 @@ struct BasicDepthSolver<D>::Impl {
     // A region holds the marked nodes and a ring of cells at least two elements wide
     // around them: several times as many nodes. Where that alone passes the limit below,
     // the flood would be wasted.
-    const std::size_t limit = static_cast<std::size_t>(num_used) / kWholeFraction;
+    const std::size_t limit = static_cast<std::size_t>(layout.num_used) / kWholeFraction;
     local_run = side > 0.0 && std::isfinite(side) && marked.size() * kRegionPerMarked <= limit;
     for (int round = 0; local_run && round < kMaxLocalRounds; ++round) {
       const bool small = build_region(side, limit);
@@ -972,7 +805,7 @@ struct BasicDepthSolver<D>::Impl {
       const std::size_t left = run_march(positions, seeds, true, marked.size());
       if (bad_node >= 0) return non_finite(bad_node);
       double deepest = 0.0;
-      for (const Index u : marked) deepest = std::max(deepest, depth[perm[u]]);
+      for (const Index u : marked) deepest = std::max(deepest, depth[layout.perm[u]]);
       if (left == 0 && deepest <= side) {
         last_deepest = deepest;
         return {};
@@ -984,23 +817,23 @@ struct BasicDepthSolver<D>::Impl {
     last_deepest = 0.0;
     local_run = false;
     ++lazy_stats.rounds;
-    lazy_stats.region_nodes = static_cast<std::size_t>(num_used);
+    lazy_stats.region_nodes = static_cast<std::size_t>(layout.num_used);
     lazy_stats.whole = true;
     if (Status st = gather(positions); !st) return st;
     if (options.method == DepthMethod::kCffm) gather_frames();
-    run_march(positions, all_boundary, true, marked.size());
+    run_march(positions, layout.all_boundary, true, marked.size());
     return {};
   }
 
   void run_exact(const Points& positions, std::span<const Index> nodes) {
-    bvh.build(surface.simplices, positions);
+    bvh.build(layout.surface.simplices, positions);
     written.assign(nodes.begin(), nodes.end());
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, nodes.size(), 512),
         [&](const tbb::blocked_range<std::size_t>& r) {
           for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const Index v = nodes[i];
-            if (is_boundary[v]) {
+            if (layout.is_boundary[v]) {
               depth[v] = 0.0;
               anchor[v] = v;
               continue;
@@ -1009,7 +842,7 @@ struct BasicDepthSolver<D>::Impl {
             const auto hit = bvh.nearest(x);
             depth[v] = std::sqrt(hit.sq_dist);
             if (hit.simplex < 0) continue;
-            const auto& f = surface.simplices[static_cast<std::size_t>(hit.simplex)];
+            const auto& f = layout.surface.simplices[static_cast<std::size_t>(hit.simplex)];
             Index best = f[0];
             for (int k = 1; k < D; ++k)
               if ((x - positions.col(f[k])).squaredNorm() < (x - positions.col(best)).squaredNorm())
@@ -1042,10 +875,7 @@ struct BasicDepthSolver<D>::Impl {
 template <int D>
 BasicDepthSolver<D>::BasicDepthSolver(std::span<const Element> elements, const TopologyOf<D>& topo,
                                       DepthSolverOptions options)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->options = options;
-  impl_->build(elements, topo);
-}
+    : impl_(std::make_unique<Impl>(elements, topo, options)) {}
 
 template <int D>
 BasicDepthSolver<D>::~BasicDepthSolver() = default;
@@ -1060,12 +890,12 @@ Status BasicDepthSolver<D>::compute(const Points& positions) {
   s.reset();
   if (s.options.method == DepthMethod::kExact) {
     if (Status st = s.check_finite(positions); !st) return st;
-    s.run_exact(positions, s.used_original);
+    s.run_exact(positions, s.layout.used_original);
     return {};
   }
   if (Status st = s.gather(positions); !st) return st;
   if (s.options.method == DepthMethod::kCffm) s.gather_frames();
-  s.run_march(positions, s.all_boundary, false, 0);
+  s.run_march(positions, s.layout.all_boundary, false, 0);
   return {};
 }
 
@@ -1074,7 +904,7 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
                                                         std::span<const Index> marked) {
   Impl& s = *impl_;
   s.reset();
-  const auto m = static_cast<Index>(s.elements.size());
+  const auto m = static_cast<Index>(s.layout.elements.size());
   for (std::size_t i = 0; i < marked.size(); ++i)
     if (marked[i] < 0 || marked[i] >= m)
       return Error{ErrorCode::kInvalidArgument,
@@ -1093,8 +923,8 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
   }
   s.marked.clear();
   for (const Index e : marked)
-    for (const Index o : s.elements[e]) {
-      const Index key = exact ? o : s.inv[o];
+    for (const Index o : s.layout.elements[e]) {
+      const Index key = exact ? o : s.layout.inv[o];
       if (s.mark[key] != s.stamp) {
         s.mark[key] = s.stamp;
         s.marked.push_back(key);
@@ -1111,7 +941,7 @@ Expected<std::size_t> BasicDepthSolver<D>::compute_lazy(const Points& positions,
     }
   } else {
     if (s.options.method == DepthMethod::kCffm) s.gather_frames();
-    s.run_march(positions, s.all_boundary, true, s.marked.size());
+    s.run_march(positions, s.layout.all_boundary, true, s.marked.size());
   }
   return s.settled;
 }
@@ -1139,7 +969,7 @@ std::size_t BasicDepthSolver<D>::settled_count() const {
 }
 template <int D>
 Index BasicDepthSolver<D>::num_nodes() const {
-  return impl_->n;
+  return impl_->layout.n;
 }
 template <int D>
 const DepthSolverOptions& BasicDepthSolver<D>::options() const {

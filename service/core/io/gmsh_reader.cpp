@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/io/mesh_io.hpp"
@@ -56,6 +57,28 @@ using io_detail::trim;
 
 constexpr std::uint64_t kMaxCount = static_cast<std::uint64_t>(std::numeric_limits<Index>::max());
 
+/// Bounds-checked reads from the binary part of a file.
+class BinaryCursor {
+ public:
+  BinaryCursor(std::string_view data, std::size_t pos) : data_(data), pos_(pos) {}
+  [[nodiscard]] std::size_t pos() const { return pos_; }
+  [[nodiscard]] std::size_t remaining() const { return data_.size() - pos_; }
+  [[nodiscard]] bool has(std::uint64_t n) const { return n <= remaining(); }
+  [[nodiscard]] const char* here() const { return data_.data() + pos_; }
+  /// Callers check has() first.
+  template <typename T>
+  T take() {
+    const T v = load_le<T>(data_.data() + pos_);
+    pos_ += sizeof(T);
+    return v;
+  }
+  void skip(std::uint64_t n) { pos_ += static_cast<std::size_t>(n); }
+
+ private:
+  std::string_view data_;
+  std::size_t pos_;
+};
+
 /// Nodes and wanted elements as parsed, before they become a TetMesh or TriMesh2.
 struct GmshData {
   std::vector<std::int64_t> ids;
@@ -86,6 +109,18 @@ class GmshParser {
   Error fail_at_line(std::size_t line, ErrorCode code, const std::string& message) const {
     return text_error(code, name_, line, message);
   }
+  // Binary data ending before `what`, located where it was expected.
+  Error truncated(const BinaryCursor& c, const std::string& what) const {
+    return fail_at(c.pos(), ErrorCode::kParse,
+                   "unexpected end of file, expected " + what + " (" +
+                       std::to_string(c.remaining()) + " bytes left)");
+  }
+  // A section's header announcing another count of `noun` than its blocks hold.
+  static std::string blocks_hold(std::string_view section, std::uint64_t announced,
+                                 std::uint64_t total, std::string_view noun) {
+    return std::string(section) + " header announces " + std::to_string(announced) + " " +
+           std::string(noun) + ", its blocks hold " + std::to_string(total);
+  }
   Error end_of_file(const std::string& expected) const {
     if (binary_)
       return fail_at(scan_.data().size(), ErrorCode::kParse,
@@ -113,6 +148,18 @@ class GmshParser {
   Status data_line(std::string_view& line, const What& what);
 
   Status add_node(std::int64_t tag, double x, double y, double z);
+  /// The node tags that end an element's text line (after its number, and its tags in
+  /// 2.2): for the wanted type each one becomes a node index appended to the connectivity;
+  /// for another type of fixed size they are only counted.
+  Status element_nodes_text(Tokens& tok, std::int64_t num, std::int64_t type);
+  /// The index of node `tag`, -1 for a tag no node has (text tags are signed, binary
+  /// ones unsigned).
+  template <typename Tag>
+  Index node_index(Tag tag) const;
+  template <typename Tag>
+  static std::string unknown_node(Tag num, Tag tag) {
+    return "element " + std::to_string(num) + " refers to unknown node tag " + std::to_string(tag);
+  }
   Status check_node_total(std::uint64_t more);
   Status check_fits(std::uint64_t count, std::uint64_t min_bytes, std::string_view what);
 
@@ -293,6 +340,52 @@ Status GmshParser::add_node(std::int64_t tag, double x, double y, double z) {
   return {};
 }
 
+template <typename Tag>
+Index GmshParser::node_index(Tag tag) const {
+  if constexpr (std::is_unsigned_v<Tag>) {
+    if (tag > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return -1;
+  }
+  return tags_.find(static_cast<std::int64_t>(tag));
+}
+
+Status GmshParser::element_nodes_text(Tokens& tok, std::int64_t num, std::int64_t type) {
+  if (type != wanted_type_) {
+    const int expected =
+        gmsh_element_node_count(static_cast<int>(type < 0 || type > 1000 ? 0 : type));
+    if (expected <= 0) return {};
+    const std::size_t got = tok.count_rest();
+    if (got != static_cast<std::size_t>(expected))
+      return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
+                                         " node tags for element " + std::to_string(num) +
+                                         " (type " + std::to_string(type) + "), got " +
+                                         std::to_string(got));
+    return {};
+  }
+  const auto k = static_cast<std::size_t>(wanted_nodes_);
+  Index conn[8];
+  std::size_t got = 0;
+  std::string_view t;
+  while (tok.next(t)) {
+    std::int64_t node = 0;
+    if (!parse_int(t, node))
+      return fail(ErrorCode::kParse,
+                  "expected a node tag in element " + std::to_string(num) + ", got " + quote(t));
+    if (got < k) {
+      const Index index = node_index(node);
+      if (index < 0) return fail(ErrorCode::kInvalidMesh, unknown_node(num, node));
+      conn[got] = index;
+    }
+    ++got;
+  }
+  if (got != k)
+    return fail(ErrorCode::kParse, "expected " + std::to_string(k) + " node tags for element " +
+                                       std::to_string(num) + ", got " + std::to_string(got));
+  if (out_.conn.size() / k >= kMaxCount)
+    return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
+  out_.conn.insert(out_.conn.end(), conn, conn + k);
+  return {};
+}
+
 // ---- MSH 2.2 ----------------------------------------------------------------------
 
 Status GmshParser::parse_nodes_v2() {
@@ -333,7 +426,6 @@ Status GmshParser::parse_elements_v2() {
   if (Status st = read_counts("the number of elements", 1, &m); !st) return st;
   // Shortest element line: "1 15 0 1\n".
   if (Status st = check_fits(static_cast<std::uint64_t>(m), 9, "elements"); !st) return st;
-  const auto k = static_cast<std::size_t>(wanted_nodes_);
   std::string_view line;
   for (std::int64_t i = 0; i < m; ++i) {
     const auto what = [&] {
@@ -353,42 +445,7 @@ Status GmshParser::parse_elements_v2() {
         return fail(ErrorCode::kParse, "expected " + std::to_string(ntags) + " tags for element " +
                                            std::to_string(num));
     if (type == 4) ++out_.tets_seen;
-    if (type == wanted_type_) {
-      Index conn[8];
-      std::size_t got = 0;
-      while (tok.next(t)) {
-        std::int64_t node = 0;
-        if (!parse_int(t, node))
-          return fail(ErrorCode::kParse, "expected a node tag in element " + std::to_string(num) +
-                                             ", got " + quote(t));
-        if (got < k) {
-          const Index index = tags_.find(node);
-          if (index < 0)
-            return fail(ErrorCode::kInvalidMesh, "element " + std::to_string(num) +
-                                                     " refers to unknown node tag " +
-                                                     std::to_string(node));
-          conn[got] = index;
-        }
-        ++got;
-      }
-      if (got != k)
-        return fail(ErrorCode::kParse, "expected " + std::to_string(k) + " node tags for element " +
-                                           std::to_string(num) + ", got " + std::to_string(got));
-      if (out_.conn.size() / k >= kMaxCount)
-        return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
-      out_.conn.insert(out_.conn.end(), conn, conn + k);
-    } else {
-      const int expected =
-          gmsh_element_node_count(static_cast<int>(type < 0 || type > 1000 ? 0 : type));
-      if (expected > 0) {
-        const std::size_t got = tok.count_rest();
-        if (got != static_cast<std::size_t>(expected))
-          return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
-                                             " node tags for element " + std::to_string(num) +
-                                             " (type " + std::to_string(type) + "), got " +
-                                             std::to_string(got));
-      }
-    }
+    if (Status st = element_nodes_text(tok, num, type); !st) return st;
   }
   return expect_line("$EndElements");
 }
@@ -463,8 +520,8 @@ Status GmshParser::parse_nodes_v4_text() {
   }
   if (total != num_nodes)
     return fail_at_line(header_line, ErrorCode::kParse,
-                        "$Nodes header announces " + std::to_string(num_nodes) +
-                            " nodes, its blocks hold " + std::to_string(total));
+                        blocks_hold("$Nodes", static_cast<std::uint64_t>(num_nodes),
+                                    static_cast<std::uint64_t>(total), "nodes"));
   return expect_line("$EndNodes");
 }
 
@@ -492,10 +549,9 @@ Status GmshParser::parse_elements_v4_text() {
       return fail(ErrorCode::kParse, "element blocks hold more than the " +
                                          std::to_string(num_elements) + " elements announced");
     total += count;
-    const int expected = gmsh_element_node_count(static_cast<int>(type > 1000 ? 0 : type));
     if (type == 4) out_.tets_seen += static_cast<std::uint64_t>(count);
-    const bool wanted = type == wanted_type_;
-    if (wanted) out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
+    if (type == wanted_type_)
+      out_.conn.reserve(out_.conn.size() + k * static_cast<std::size_t>(count));
     for (std::int64_t i = 0; i < count; ++i) {
       const auto what = [&] {
         return "element " + std::to_string(i + 1) + " of block " + std::to_string(b + 1);
@@ -506,80 +562,21 @@ Status GmshParser::parse_elements_v4_text() {
       std::int64_t num = 0;
       if (!tok.next(t) || !parse_int(t, num))
         return fail(ErrorCode::kParse, "expected an element tag, got " + quote(trim(line)));
-      if (wanted) {
-        Index conn[8];
-        std::size_t got = 0;
-        while (tok.next(t)) {
-          std::int64_t node = 0;
-          if (!parse_int(t, node))
-            return fail(ErrorCode::kParse, "expected a node tag in element " + std::to_string(num) +
-                                               ", got " + quote(t));
-          if (got < k) {
-            const Index index = tags_.find(node);
-            if (index < 0)
-              return fail(ErrorCode::kInvalidMesh, "element " + std::to_string(num) +
-                                                       " refers to unknown node tag " +
-                                                       std::to_string(node));
-            conn[got] = index;
-          }
-          ++got;
-        }
-        if (got != k)
-          return fail(ErrorCode::kParse, "expected " + std::to_string(k) +
-                                             " node tags for element " + std::to_string(num) +
-                                             ", got " + std::to_string(got));
-        if (out_.conn.size() / k >= kMaxCount)
-          return fail(ErrorCode::kUnsupported, "more than 2^31-1 elements");
-        out_.conn.insert(out_.conn.end(), conn, conn + k);
-      } else if (expected > 0) {
-        const std::size_t got = tok.count_rest();
-        if (got != static_cast<std::size_t>(expected))
-          return fail(ErrorCode::kParse, "expected " + std::to_string(expected) +
-                                             " node tags for element " + std::to_string(num) +
-                                             " (type " + std::to_string(type) + "), got " +
-                                             std::to_string(got));
-      }
+      if (Status st = element_nodes_text(tok, num, type); !st) return st;
     }
   }
   if (total != num_elements)
     return fail_at_line(header_line, ErrorCode::kParse,
-                        "$Elements header announces " + std::to_string(num_elements) +
-                            " elements, its blocks hold " + std::to_string(total));
+                        blocks_hold("$Elements", static_cast<std::uint64_t>(num_elements),
+                                    static_cast<std::uint64_t>(total), "elements"));
   return expect_line("$EndElements");
 }
 
 // ---- MSH 4.1 binary ---------------------------------------------------------------
 
-/// Bounds-checked reads from the binary part of a file.
-class BinaryCursor {
- public:
-  BinaryCursor(std::string_view data, std::size_t pos) : data_(data), pos_(pos) {}
-  [[nodiscard]] std::size_t pos() const { return pos_; }
-  [[nodiscard]] std::size_t remaining() const { return data_.size() - pos_; }
-  [[nodiscard]] bool has(std::uint64_t n) const { return n <= remaining(); }
-  [[nodiscard]] const char* here() const { return data_.data() + pos_; }
-  /// Callers check has() first.
-  template <typename T>
-  T take() {
-    const T v = load_le<T>(data_.data() + pos_);
-    pos_ += sizeof(T);
-    return v;
-  }
-  void skip(std::uint64_t n) { pos_ += static_cast<std::size_t>(n); }
-
- private:
-  std::string_view data_;
-  std::size_t pos_;
-};
-
 Status GmshParser::parse_nodes_v4_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Nodes header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Nodes header (4 x size_t)");
   const std::size_t header_at = c.pos();
   const auto blocks = c.take<std::uint64_t>();
   const auto num_nodes = c.take<std::uint64_t>();
@@ -597,7 +594,7 @@ Status GmshParser::parse_nodes_v4_binary() {
   std::uint64_t total = 0;
   for (std::uint64_t b = 0; b < blocks; ++b) {
     const std::size_t block_at = c.pos();
-    if (!c.has(20)) return truncated("the header of node block " + std::to_string(b + 1));
+    if (!c.has(20)) return truncated(c, "the header of node block " + std::to_string(b + 1));
     const auto dim = c.take<std::int32_t>();
     c.take<std::int32_t>();  // entity tag
     const auto parametric = c.take<std::int32_t>();
@@ -613,7 +610,7 @@ Status GmshParser::parse_nodes_v4_binary() {
           block_at, ErrorCode::kParse,
           "node blocks hold more than the " + std::to_string(num_nodes) + " nodes announced");
     if (count > c.remaining() / per_node)
-      return truncated(std::to_string(count) + " nodes in block " + std::to_string(b + 1));
+      return truncated(c, std::to_string(count) + " nodes in block " + std::to_string(b + 1));
     total += count;
     const char* tags = c.here();
     const char* coords = tags + 8 * count;
@@ -638,21 +635,14 @@ Status GmshParser::parse_nodes_v4_binary() {
     c.skip(per_node * count);
   }
   if (total != num_nodes)
-    return fail_at(header_at, ErrorCode::kParse,
-                   "$Nodes header announces " + std::to_string(num_nodes) +
-                       " nodes, its blocks hold " + std::to_string(total));
+    return fail_at(header_at, ErrorCode::kParse, blocks_hold("$Nodes", num_nodes, total, "nodes"));
   scan_.seek(c.pos());
   return expect_line("$EndNodes");
 }
 
 Status GmshParser::parse_elements_v4_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Elements header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Elements header (4 x size_t)");
   const std::size_t header_at = c.pos();
   const auto blocks = c.take<std::uint64_t>();
   const auto num_elements = c.take<std::uint64_t>();
@@ -667,7 +657,7 @@ Status GmshParser::parse_elements_v4_binary() {
   std::uint64_t total = 0;
   for (std::uint64_t b = 0; b < blocks; ++b) {
     const std::size_t block_at = c.pos();
-    if (!c.has(20)) return truncated("the header of element block " + std::to_string(b + 1));
+    if (!c.has(20)) return truncated(c, "the header of element block " + std::to_string(b + 1));
     c.take<std::int32_t>();  // entity dim
     c.take<std::int32_t>();  // entity tag
     const auto type = c.take<std::int32_t>();
@@ -683,8 +673,8 @@ Status GmshParser::parse_elements_v4_binary() {
                          " elements announced");
     const std::uint64_t per_element = 8 * (1 + static_cast<std::uint64_t>(nodes));
     if (count > c.remaining() / per_element)
-      return truncated(std::to_string(count) + " elements of type " + std::to_string(type) +
-                       " in block " + std::to_string(b + 1));
+      return truncated(c, std::to_string(count) + " elements of type " + std::to_string(type) +
+                              " in block " + std::to_string(b + 1));
     total += count;
     if (type == 4) out_.tets_seen += count;
     if (type == wanted_type_) {
@@ -696,15 +686,10 @@ Status GmshParser::parse_elements_v4_binary() {
         const auto num = load_le<std::uint64_t>(p);
         for (std::size_t j = 0; j < k; ++j) {
           const auto node = load_le<std::uint64_t>(p + 8 * (1 + j));
-          const Index index =
-              node > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())
-                  ? -1
-                  : tags_.find(static_cast<std::int64_t>(node));
+          const Index index = node_index(node);
           if (index < 0)
             return fail_at(static_cast<std::size_t>(p - scan_.data().data()) + 8 * (1 + j),
-                           ErrorCode::kInvalidMesh,
-                           "element " + std::to_string(num) + " refers to unknown node tag " +
-                               std::to_string(node));
+                           ErrorCode::kInvalidMesh, unknown_node(num, node));
           out_.conn.push_back(index);
         }
       }
@@ -713,20 +698,14 @@ Status GmshParser::parse_elements_v4_binary() {
   }
   if (total != num_elements)
     return fail_at(header_at, ErrorCode::kParse,
-                   "$Elements header announces " + std::to_string(num_elements) +
-                       " elements, its blocks hold " + std::to_string(total));
+                   blocks_hold("$Elements", num_elements, total, "elements"));
   scan_.seek(c.pos());
   return expect_line("$EndElements");
 }
 
 Status GmshParser::parse_entities_binary() {
   BinaryCursor c(scan_.data(), scan_.offset());
-  const auto truncated = [&](const std::string& what) {
-    return fail_at(c.pos(), ErrorCode::kParse,
-                   "unexpected end of file, expected " + what + " (" +
-                       std::to_string(c.remaining()) + " bytes left)");
-  };
-  if (!c.has(32)) return truncated("the $Entities header (4 x size_t)");
+  if (!c.has(32)) return truncated(c, "the $Entities header (4 x size_t)");
   std::uint64_t counts[4];
   for (auto& n : counts) n = c.take<std::uint64_t>();
   static constexpr const char* kKinds[4] = {"point", "curve", "surface", "volume"};
@@ -734,20 +713,20 @@ Status GmshParser::parse_entities_binary() {
     // Point: int tag, 3 doubles, size_t; others: int tag, 6 doubles, 2 size_t.
     const std::uint64_t min_bytes = kind == 0 ? 36 : 68;
     if (counts[kind] > c.remaining() / min_bytes)
-      return truncated(std::to_string(counts[kind]) + " " + kKinds[kind] + " entities");
+      return truncated(c, std::to_string(counts[kind]) + " " + kKinds[kind] + " entities");
     for (std::uint64_t e = 0; e < counts[kind]; ++e) {
       const auto what = [&] {
         return std::string(kKinds[kind]) + " entity " + std::to_string(e + 1);
       };
-      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(what());
+      if (!c.has(min_bytes - (kind == 0 ? 0 : 8))) return truncated(c, what());
       c.skip(kind == 0 ? 4 + 24 : 4 + 48);
       const auto physicals = c.take<std::uint64_t>();
-      if (physicals > c.remaining() / 4) return truncated("physical tags of " + what());
+      if (physicals > c.remaining() / 4) return truncated(c, "physical tags of " + what());
       c.skip(4 * physicals);
       if (kind > 0) {
-        if (!c.has(8)) return truncated("bounding entity count of " + what());
+        if (!c.has(8)) return truncated(c, "bounding entity count of " + what());
         const auto bounding = c.take<std::uint64_t>();
-        if (bounding > c.remaining() / 4) return truncated("bounding entities of " + what());
+        if (bounding > c.remaining() / 4) return truncated(c, "bounding entities of " + what());
         c.skip(4 * bounding);
       }
     }

@@ -1,14 +1,15 @@
-// A small hand-written SVG log-log scatter plot for the bench reports: decade grid
-// with labelled ticks, axis titles, markers coded by colour (a series, e.g. a method)
-// and shape (a group, e.g. a mesh), filled or hollow, optional links between markers,
-// and a legend beside the plot. Positive values only (the caller clamps).
+// A log-log scatter plot as SVG for the bench reports (`tetcollide bench --plot`): decade
+// grid with labelled ticks, axis titles, markers coded by colour (a series, e.g. a
+// method) and shape (a group, e.g. a mesh), filled or hollow, optional links between
+// markers, and a legend beside the plot. Positive values only (the caller clamps).
+// Written with the same SVG writer as plot_lines_svg (svg.hpp).
 #pragma once
 
 #include <string>
 #include <utility>
 #include <vector>
 
-namespace tc::cli {
+namespace tc::viz {
 
 struct PlotPoint {
   double x = 0.0;
@@ -30,6 +31,6 @@ struct LogLogPlot {
 };
 
 /// The plot as a standalone SVG document (about 960 x 600 px).
-std::string render_svg(const LogLogPlot& plot);
+std::string plot_loglog_svg(const LogLogPlot& plot);
 
-}  // namespace tc::cli
+}  // namespace tc::viz
