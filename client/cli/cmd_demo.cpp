@@ -163,109 +163,6 @@ class DdsContactService final : public sim::ContactService {
   std::map<std::string, client::ObjectParams> params_;
 };
 
-/// What the pictures draw of an object: a tet object's boundary faces, a shell's triangles.
-std::vector<std::array<std::int32_t, 3>> boundary_of(const sim::SimObject& o) {
-  if (const SurfaceMesh* s = o.surface(); s != nullptr) {
-    std::vector<std::array<std::int32_t, 3>> out;
-    out.reserve(s->triangles.size());
-    for (const Triangle& t : s->triangles)
-      out.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
-                     static_cast<std::int32_t>(t[2])});
-    return out;
-  }
-  const Topology topo = build_topology(o.mesh().tets, o.mesh().num_nodes());
-  return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
-}
-
-/// Writes frame `f` of every object into one unstructured grid `out/frame_NNNN.vtu`: point
-/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object. The
-/// tets of every tet object come first, then the triangles of the shells.
-Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
-                       const std::vector<std::vector<double>>& depth,
-                       const std::filesystem::path& out, int f) {
-  TetMesh all;
-  std::vector<std::array<Index, 3>> triangles;
-  std::vector<double> triangle_object;
-  Index total = 0;
-  std::size_t tets = 0;
-  for (const auto& e : objects) {
-    total += static_cast<Index>(e.positions().cols());
-    tets += e.mesh().tets.size();
-  }
-  all.positions.resize(3, total);
-  all.tets.reserve(tets);
-  VtuField fd{"depth", 1, {}};
-  VtuField ff{"force", 3, {}};
-  VtuField fv{"velocity", 3, {}};
-  VtuField fo{"object", 1, {}};
-  Index base = 0;
-  for (std::size_t i = 0; i < objects.size(); ++i) {
-    const auto& e = objects[i];
-    const auto& x = e.positions();
-    all.positions.middleCols(base, x.cols()) = x;
-    for (Eigen::Index n = 0; n < x.cols(); ++n) {
-      all.node_ids.push_back(n);
-      fd.values.push_back(depth.empty() ? 0.0 : depth[i][static_cast<std::size_t>(n)]);
-      for (int k = 0; k < 3; ++k) {
-        ff.values.push_back(e.contact(k, n));
-        fv.values.push_back(e.velocities()(k, n));
-      }
-    }
-    for (Tet t : e.mesh().tets) {
-      for (auto& n : t) n += base;
-      all.tets.push_back(t);
-      fo.values.push_back(static_cast<double>(i));
-    }
-    if (const SurfaceMesh* s = e.surface(); s != nullptr)
-      for (Triangle t : s->triangles) {
-        for (auto& n : t) n += base;
-        triangles.push_back(t);
-        triangle_object.push_back(static_cast<double>(i));
-      }
-    base += static_cast<Index>(x.cols());
-  }
-  fo.values.insert(fo.values.end(), triangle_object.begin(), triangle_object.end());
-  char name[32];
-  std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
-  const std::vector<VtuField> point{fd, ff, fv};
-  const std::vector<VtuField> cell{fo};
-  return write_vtu(out / name, all, triangles, point, cell);
-}
-
-/// Draws the scene's objects at their current positions into `path`.
-Status render_frame(const std::vector<sim::SimObject>& objects,
-                    const std::vector<std::vector<std::array<std::int32_t, 3>>>& surface,
-                    const sim::SceneSpec& scene, int frame, double max_depth_mm,
-                    const std::filesystem::path& path) {
-  std::vector<viz::Surface> surfaces;
-  for (std::size_t i = 0; i < objects.size(); ++i) {
-    const auto& e = objects[i];
-    viz::Surface s;
-    s.positions = &e.positions();
-    s.triangles = surface[i];
-    s.base_color = e.spec.color.cast<float>();
-    surfaces.push_back(std::move(s));
-  }
-  viz::Camera cam;
-  if (scene.camera.set) {
-    cam.eye = scene.camera.eye;
-    cam.target = scene.camera.target;
-    cam.up = scene.camera.up;
-    cam.fov_deg = scene.camera.fov_deg;
-    cam.width = scene.image_width;
-    cam.height = scene.image_height;
-  } else {
-    cam = viz::fit_camera(surfaces, Eigen::Vector3d(-1.0, 1.2, -0.7), scene.image_width,
-                          scene.image_height);
-  }
-  viz::RenderOptions options;
-  char title[160];
-  std::snprintf(title, sizeof title, "frame %d  t = %.3f s  penetration %.1f mm", frame,
-                frame * scene.dt, max_depth_mm);
-  options.title = title;
-  return viz::write_png(viz::render(surfaces, cam, options), path.string());
-}
-
 /// Progress on stderr: a bar redrawn in place on a terminal, a line per 10 % otherwise.
 class Progress {
  public:
@@ -511,6 +408,59 @@ void print_summary(const RunReport& r, const std::filesystem::path& out) {
   std::printf("     stage_times.png, stage_times.svg, stage_times.csv, summary.json\n");
 }
 
+/// Writes the config of a private daemon (--spawn-daemon) into `out` and starts it, its
+/// log in out/tetcollided.log.
+Status spawn_daemon(demo::ChildProcess& daemon, const std::filesystem::path& out,
+                    std::uint32_t domain, const std::string& dds_config) {
+  const auto config = out / "tetcollided.yaml";
+  {
+    // compute_stiffness: the implicit integrator needs the contact stiffness blocks.
+    std::ofstream c(config);
+    c << "# Written by tetcollide demo --spawn-daemon: the embedded defaults, a private\n"
+         "# domain, the loopback Cyclone DDS config and the contact stiffness blocks.\n"
+         "version: 1\ndds:\n  domain: "
+      << domain << "\n  cyclonedds_config: \"" << dds_config
+      << "\"\npipeline:\n  compute_stiffness: true\nlog:\n  timing_summary_period_s: 0\n";
+  }
+  const auto log = out / "tetcollided.log";
+  std::error_code ec;
+  std::filesystem::remove(log, ec);
+  if (auto st = daemon.start({(demo::exe_dir() / "tetcollided").string(), "--config",
+                              config.string(), "--domain", std::to_string(domain)},
+                             log);
+      !st)
+    return Error{st.error().code, st.error().message + " (build it: ninja -C build tetcollided)"};
+  return {};
+}
+
+/// Connects to the service and waits up to 20 s for it to answer; a spawned `daemon` that
+/// exits meanwhile is an error naming its log.
+Expected<std::unique_ptr<client::Client>> connect_service(const client::Options& options,
+                                                          demo::ChildProcess* daemon,
+                                                          const std::filesystem::path& out) {
+  std::unique_ptr<client::Client> c;
+  try {
+    c = client::Client::connect(options);
+  } catch (const std::exception& e) {
+    return Error{ErrorCode::kIo, e.what()};
+  }
+  {
+    const auto deadline = Clock::now() + 20s;
+    bool ready = false;
+    while (!ready && Clock::now() < deadline && !g_demo_stop.load()) {
+      ready = c->wait_for_service(100ms);
+      if (daemon != nullptr && !daemon->alive())
+        return Error{ErrorCode::kIo, "tetcollided exited during start-up; see " +
+                                         (out / "tetcollided.log").string()};
+    }
+    if (!ready)
+      return Error{ErrorCode::kIo, "no tetcollided answered on domain " +
+                                       std::to_string(options.domain) +
+                                       " within 20 s (start one, or pass --spawn-daemon)"};
+  }
+  return c;
+}
+
 int run_demo(const DemoArgs& args) {
   // ---- the scene ----
   const auto roots = demo::data_roots();
@@ -548,7 +498,7 @@ int run_demo(const DemoArgs& args) {
   const auto& objects = run.objects();
   // Boundary faces of each object, for the pictures (recomputed after a cut).
   std::vector<std::vector<std::array<std::int32_t, 3>>> surface;
-  for (const auto& o : objects) surface.push_back(boundary_of(o));
+  for (const auto& o : objects) surface.push_back(demo::boundary_of(o));
   const bool implicit = scene.integrator == "implicit";
   if (!implicit) {
     double stable = std::numeric_limits<double>::infinity();
@@ -572,53 +522,20 @@ int run_demo(const DemoArgs& args) {
     if (!args.domain) domain = 100 + static_cast<std::uint32_t>(getpid()) % 120;
     const auto xml = demo::find_cyclonedds_config();
     if (!xml.empty()) dds_config = "file://" + xml.string();
-    const auto config = out / "tetcollided.yaml";
-    {
-      // compute_stiffness: the implicit integrator needs the contact stiffness blocks.
-      std::ofstream c(config);
-      c << "# Written by tetcollide demo --spawn-daemon: the embedded defaults, a private\n"
-           "# domain, the loopback Cyclone DDS config and the contact stiffness blocks.\n"
-           "version: 1\ndds:\n  domain: "
-        << domain << "\n  cyclonedds_config: \"" << dds_config
-        << "\"\npipeline:\n  compute_stiffness: true\nlog:\n  timing_summary_period_s: 0\n";
-    }
-    const auto log = out / "tetcollided.log";
-    std::filesystem::remove(log, ec);
-    if (auto st = daemon.start({(demo::exe_dir() / "tetcollided").string(), "--config",
-                                config.string(), "--domain", std::to_string(domain)},
-                               log);
-        !st)
-      return report_error(st.error().message + " (build it: ninja -C build tetcollided)",
-                          kExitFailure);
+    if (auto st = spawn_daemon(daemon, out, domain, dds_config); !st)
+      return report_error(st.error().message, kExitFailure);
     std::fprintf(stderr, "tetcollide: started tetcollided (pid %d) on domain %u, log %s\n",
-                 static_cast<int>(daemon.pid()), domain, log.string().c_str());
+                 static_cast<int>(daemon.pid()), domain,
+                 (out / "tetcollided.log").string().c_str());
   }
   client::Options options;
   options.domain = domain;
   options.scene = scene.name;
   options.cyclonedds_config = dds_config;
   options.resend_after = 500ms;
-  std::unique_ptr<client::Client> c;
-  try {
-    c = client::Client::connect(options);
-  } catch (const std::exception& e) {
-    return report_error(e.what(), kExitFailure);
-  }
-  {
-    const auto deadline = Clock::now() + 20s;
-    bool ready = false;
-    while (!ready && Clock::now() < deadline && !g_demo_stop.load()) {
-      ready = c->wait_for_service(100ms);
-      if (args.spawn_daemon && !daemon.alive())
-        return report_error(
-            "tetcollided exited during start-up; see " + (out / "tetcollided.log").string(),
-            kExitFailure);
-    }
-    if (!ready)
-      return report_error("no tetcollided answered on domain " + std::to_string(domain) +
-                              " within 20 s (start one, or pass --spawn-daemon)",
-                          kExitFailure);
-  }
+  auto connected = connect_service(options, args.spawn_daemon ? &daemon : nullptr, out);
+  if (!connected) return report_error(connected.error().message, kExitFailure);
+  std::unique_ptr<client::Client> c = std::move(*connected);
   DdsContactService service(*c);
   for (const auto& o : objects) {
     service.set_params(o.spec.name, to_params(o.spec));
@@ -683,7 +600,8 @@ int run_demo(const DemoArgs& args) {
       return report_error(st.error().message, kExitFailure);
     const auto& depth = run.depth();
     if (vtu_due) {
-      if (auto st = write_frame_vtu(objects, depth, out, f); !st) return report_error(st.error());
+      if (auto st = demo::write_frame_vtu(objects, depth, out, f); !st)
+        return report_error(st.error());
       char name[32];
       std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
       pvd.push_back({f * scene.dt, name});
@@ -694,14 +612,14 @@ int run_demo(const DemoArgs& args) {
       double deepest = 0.0;
       for (const auto& d : depth)
         for (const double v : d) deepest = std::max(deepest, v);
-      if (auto st = render_frame(objects, surface, scene, f, deepest * 1e3, out / name); !st)
+      if (auto st = demo::render_frame(objects, surface, scene, f, deepest * 1e3, out / name); !st)
         return report_error(st.error());
       pngs.push_back(name);
     }
     // ---- integrate, tear (a new topology version; the states go on with it) ----
     auto cut = run.advance(service, f);
     if (!cut) return report_error(cut.error().message, kExitFailure);
-    for (const std::size_t i : *cut) surface[i] = boundary_of(objects[i]);
+    for (const std::size_t i : *cut) surface[i] = demo::boundary_of(objects[i]);
     if (recording && f == args.record_to) {
       const auto until = Clock::now() + 20s;
       while (recorded_answers(args.record, f) < objects.size() && Clock::now() < until)

@@ -5,6 +5,9 @@
 #include <cstdio>
 #include <fstream>
 
+#include "core/mesh/topology.hpp"
+#include "render.hpp"
+
 #ifndef TC_SOURCE_DIR
 #define TC_SOURCE_DIR ""
 #endif
@@ -97,6 +100,109 @@ double percentile(std::vector<double> values, double q) {
   std::sort(values.begin(), values.end());
   const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(values.size())));
   return values[std::min(values.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+/// What the pictures draw of an object: a tet object's boundary faces, a shell's triangles.
+std::vector<std::array<std::int32_t, 3>> boundary_of(const sim::SimObject& o) {
+  if (const SurfaceMesh* s = o.surface(); s != nullptr) {
+    std::vector<std::array<std::int32_t, 3>> out;
+    out.reserve(s->triangles.size());
+    for (const Triangle& t : s->triangles)
+      out.push_back({static_cast<std::int32_t>(t[0]), static_cast<std::int32_t>(t[1]),
+                     static_cast<std::int32_t>(t[2])});
+    return out;
+  }
+  const Topology topo = build_topology(o.mesh().tets, o.mesh().num_nodes());
+  return {topo.boundary_faces.begin(), topo.boundary_faces.end()};
+}
+
+/// Writes frame `f` of every object into one unstructured grid `out/frame_NNNN.vtu`: point
+/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object. The
+/// tets of every tet object come first, then the triangles of the shells.
+Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
+                       const std::vector<std::vector<double>>& depth,
+                       const std::filesystem::path& out, int f) {
+  TetMesh all;
+  std::vector<std::array<Index, 3>> triangles;
+  std::vector<double> triangle_object;
+  Index total = 0;
+  std::size_t tets = 0;
+  for (const auto& e : objects) {
+    total += static_cast<Index>(e.positions().cols());
+    tets += e.mesh().tets.size();
+  }
+  all.positions.resize(3, total);
+  all.tets.reserve(tets);
+  VtuField fd{"depth", 1, {}};
+  VtuField ff{"force", 3, {}};
+  VtuField fv{"velocity", 3, {}};
+  VtuField fo{"object", 1, {}};
+  Index base = 0;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const auto& e = objects[i];
+    const auto& x = e.positions();
+    all.positions.middleCols(base, x.cols()) = x;
+    for (Eigen::Index n = 0; n < x.cols(); ++n) {
+      all.node_ids.push_back(n);
+      fd.values.push_back(depth.empty() ? 0.0 : depth[i][static_cast<std::size_t>(n)]);
+      for (int k = 0; k < 3; ++k) {
+        ff.values.push_back(e.contact(k, n));
+        fv.values.push_back(e.velocities()(k, n));
+      }
+    }
+    for (Tet t : e.mesh().tets) {
+      for (auto& n : t) n += base;
+      all.tets.push_back(t);
+      fo.values.push_back(static_cast<double>(i));
+    }
+    if (const SurfaceMesh* s = e.surface(); s != nullptr)
+      for (Triangle t : s->triangles) {
+        for (auto& n : t) n += base;
+        triangles.push_back(t);
+        triangle_object.push_back(static_cast<double>(i));
+      }
+    base += static_cast<Index>(x.cols());
+  }
+  fo.values.insert(fo.values.end(), triangle_object.begin(), triangle_object.end());
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%04d.vtu", f);
+  const std::vector<VtuField> point{fd, ff, fv};
+  const std::vector<VtuField> cell{fo};
+  return write_vtu(out / name, all, triangles, point, cell);
+}
+
+/// Draws the scene's objects at their current positions into `path`.
+Status render_frame(const std::vector<sim::SimObject>& objects,
+                    const std::vector<std::vector<std::array<std::int32_t, 3>>>& surface,
+                    const sim::SceneSpec& scene, int frame, double max_depth_mm,
+                    const std::filesystem::path& path) {
+  std::vector<viz::Surface> surfaces;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const auto& e = objects[i];
+    viz::Surface s;
+    s.positions = &e.positions();
+    s.triangles = surface[i];
+    s.base_color = e.spec.color.cast<float>();
+    surfaces.push_back(std::move(s));
+  }
+  viz::Camera cam;
+  if (scene.camera.set) {
+    cam.eye = scene.camera.eye;
+    cam.target = scene.camera.target;
+    cam.up = scene.camera.up;
+    cam.fov_deg = scene.camera.fov_deg;
+    cam.width = scene.image_width;
+    cam.height = scene.image_height;
+  } else {
+    cam = viz::fit_camera(surfaces, Eigen::Vector3d(-1.0, 1.2, -0.7), scene.image_width,
+                          scene.image_height);
+  }
+  viz::RenderOptions options;
+  char title[160];
+  std::snprintf(title, sizeof title, "frame %d  t = %.3f s  penetration %.1f mm", frame,
+                frame * scene.dt, max_depth_mm);
+  options.title = title;
+  return viz::write_png(viz::render(surfaces, cam, options), path.string());
 }
 
 }  // namespace tc::cli::demo

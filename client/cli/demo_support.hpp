@@ -1,5 +1,6 @@
 // Plumbing of `tetcollide demo` (cmd_demo.cpp): finding scenes and programs, a private
-// tetcollided child process, and the output files (VTK series).
+// tetcollided child process, and the output files (the frames' VTK grids and series, the
+// pictures).
 #pragma once
 
 #include <sys/types.h>
@@ -13,6 +14,7 @@
 #include "child_process.hpp"
 #include "core/common/result.hpp"
 #include "core/io/mesh_io.hpp"
+#include "scene_run.hpp"
 
 namespace tc::cli::demo {
 
@@ -60,5 +62,23 @@ Status write_pvd(const std::filesystem::path& path, const std::vector<PvdEntry>&
 
 /// Nearest-rank percentile (q in [0, 1]); 0 for an empty list.
 double percentile(std::vector<double> values, double q);
+
+/// What the pictures draw of an object: a tet object's boundary faces, a shell's
+/// triangles.
+std::vector<std::array<std::int32_t, 3>> boundary_of(const sim::SimObject& o);
+
+/// Writes frame `f` of every object into one unstructured grid `out/frame_NNNN.vtu`: point
+/// fields depth (m; 0 when not probed), force (N), velocity (m/s), cell field object. The
+/// tets of every tet object come first, then the triangles of the shells.
+Status write_frame_vtu(const std::vector<sim::SimObject>& objects,
+                       const std::vector<std::vector<double>>& depth,
+                       const std::filesystem::path& out, int f);
+
+/// Draws the scene's objects (their `surface` triangles) at their current positions into
+/// the PNG `path`, titled with the frame, its time and the deepest penetration.
+Status render_frame(const std::vector<sim::SimObject>& objects,
+                    const std::vector<std::vector<std::array<std::int32_t, 3>>>& surface,
+                    const sim::SceneSpec& scene, int frame, double max_depth_mm,
+                    const std::filesystem::path& path);
 
 }  // namespace tc::cli::demo
