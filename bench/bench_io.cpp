@@ -7,6 +7,7 @@
 // floor issue 13 sets for work outside the contact: reading the positions once.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,8 @@
 #include <string>
 
 #include "core/io/mesh_io.hpp"
+#include "core/mesh/shape_check.hpp"
+#include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 #include "test_meshes.hpp"
 
@@ -178,6 +181,61 @@ void BM_ValidatePositionsMinQuality(benchmark::State& state) {
   validate(state, box(), true);
 }
 
+/// The per-frame check of the pipeline (tc::ShapeCheck) over a sequence of states of the box.
+/// state.range(0): threads; state.range(1): the motion between frames (0 still, 1 every
+/// node jittered by 1e-6 of the box, 2 a dent of ~1% of the nodes pressed in and out,
+/// 3 the whole box turned by 0.01 rad a frame).
+void BM_ShapeCheck(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const tc::TetMesh& mesh = box();
+  const tc::TetCheckOrder order = tc::make_tet_check_order(mesh.positions, mesh.tets);
+  const tc::Topology topology = tc::build_topology(mesh.tets, mesh.num_nodes());
+  tc::ValidationOptions options;
+  options.compute_min_quality = false;
+  tc::ShapeCheck check(order, topology.node_tets, mesh.num_nodes(), options);
+  const tc::Positions& rest = mesh.positions;
+  const Eigen::Vector3d lo = rest.rowwise().minCoeff(), hi = rest.rowwise().maxCoeff();
+  const double size = (hi - lo).maxCoeff();
+  std::vector<tc::Positions> states;
+  const long motion = state.range(1);
+  if (motion == 0) states = {rest};
+  if (motion == 1) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1e-6 * size, 1e-6 * size);
+    for (int k = 0; k < 4; ++k) {
+      tc::Positions x = rest;
+      for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += u(rng);
+      states.push_back(std::move(x));
+    }
+  }
+  if (motion == 2) {
+    // A tool 0.14 of the box wide pressed 0.02 of the box into the middle of the top face.
+    const Eigen::Vector3d centre(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z());
+    tc::Positions x = rest;
+    for (tc::Index i = 0; i < x.cols(); ++i) {
+      const double d = (x.col(i) - centre).norm() / (0.14 * size);
+      if (d < 1.0) x(2, i) -= 0.02 * size * (1.0 - d) * (1.0 - d);
+    }
+    states = {rest, x};
+  }
+  if (motion == 3)
+    for (int k = 1; k <= 64; ++k)
+      states.push_back(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+                       rest);
+  (void)check.check(rest);  // the first state: the reference
+  std::size_t frame = 0, checked = 0;
+  for (auto _ : state) {
+    const tc::ValidationReport r = check.check(states[frame++ % states.size()]);
+    if (!r.clean()) state.SkipWithError("the box is not clean");
+    checked += check.last().checked_tets;
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["tets"] = static_cast<double>(mesh.num_tets());
+  state.counters["checked_tets"] =
+      static_cast<double>(checked) / static_cast<double>(std::max<std::size_t>(frame, 1));
+}
+
 /// Floor: every coordinate read once (finite check and sum), one thread.
 void BM_Baseline_ReadPositionsOnce(benchmark::State& state) {
   const tc::Positions& p = box().positions;
@@ -207,6 +265,11 @@ BENCHMARK(BM_ValidatePositionsShuffled)
 BENCHMARK(BM_ValidatePositionsShuffledMorton)
     ->Arg(1)
     ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_ShapeCheck)
+    ->ArgsProduct({{1, 2}, {0, 1, 2, 3}})
+    ->ArgNames({"threads", "motion"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ValidatePositionsMinQuality)

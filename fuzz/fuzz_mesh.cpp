@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdint>
 
+#include "core/mesh/shape_check.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 #include "fuzz_input.hpp"
@@ -83,6 +84,27 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const tc::ValidationReport frame = tc::validate_positions(mesh.positions, mesh.tets);
     TC_FUZZ_CHECK(frame.degenerate.count == report.degenerate.count);
     TC_FUZZ_CHECK(frame.inverted.count == report.inverted.count);
+    // The pipeline's incremental check (tc::ShapeCheck) agrees with the full one on a
+    // sequence of states: each moves one node to a coordinate taken from the input.
+    tc::ValidationOptions options;
+    options.compute_min_quality = false;
+    const tc::TetCheckOrder order = tc::make_tet_check_order(mesh.positions, mesh.tets);
+    tc::ShapeCheck check(order, topo.node_tets, mesh.num_nodes(), options);
+    tc::Positions x = mesh.positions;
+    for (int step = 0; step < 8; ++step) {
+      const tc::ValidationReport got = check.check(x);
+      const tc::ValidationReport want = tc::validate_positions(x, order, options);
+      TC_FUZZ_CHECK(got.nonfinite_node.count == want.nonfinite_node.count &&
+                    got.nonfinite_node.first == want.nonfinite_node.first);
+      TC_FUZZ_CHECK(got.degenerate.count == want.degenerate.count &&
+                    got.degenerate.first == want.degenerate.first);
+      TC_FUZZ_CHECK(got.inverted.count == want.inverted.count &&
+                    got.inverted.first == want.inverted.first);
+      TC_FUZZ_CHECK(got.sliver.count == want.sliver.count && got.sliver.first == want.sliver.first);
+      if (n == 0 || in.remaining() == 0) break;
+      const auto node = static_cast<Eigen::Index>(in.small(n));
+      x(static_cast<Eigen::Index>(in.small(3)), node) = in.coordinate();
+    }
   }
   return 0;
 }

@@ -1,6 +1,6 @@
-// service/core/detect/sorted_index_set.hpp: the bitmap set gives the list a sort and
+// service/core/mesh/sorted_index_set.hpp: the bitmap set gives the list a sort and
 // unique of its inserts give, and leaves its bitmap all zero for the next use.
-#include "core/detect/sorted_index_set.hpp"
+#include "core/mesh/sorted_index_set.hpp"
 
 #include <gtest/gtest.h>
 

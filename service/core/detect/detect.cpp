@@ -12,7 +12,7 @@
 
 #include "core/common/chunked.hpp"
 #include "core/detect/edge_hits.hpp"
-#include "core/detect/sorted_index_set.hpp"
+#include "core/mesh/sorted_index_set.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/spatial_order.hpp"
 

@@ -155,6 +155,12 @@ void check_coordinates(const Positions& p, const ValidationOptions& opt, Validat
 
 }  // namespace
 
+void detail::check_tet_shapes(const Positions& positions, std::span<const Tet> tets,
+                              std::span<const Index> index, const ValidationOptions& options,
+                              ValidationReport& report) {
+  check_shapes(positions, tets, options, {}, index, report);
+}
+
 void append_defects(std::ostringstream& out, const DefectList& list, const char* what) {
   if (list.count == 0) return;
   if (out.tellp() > 0) out << "; ";

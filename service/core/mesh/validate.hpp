@@ -2,6 +2,7 @@
 #pragma once
 
 #include <iosfwd>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -87,6 +88,18 @@ TetCheckOrder make_tet_check_order(const Positions& positions, const std::vector
 /// `order.index` and `order.tets` differ in size.
 ValidationReport validate_positions(const Positions& positions, const TetCheckOrder& order,
                                     const ValidationOptions& options = {});
+
+namespace detail {
+
+/// The shape part of validate_positions() over some tets only: tets[k] is the mesh's tet
+/// index[k]. Adds to the degenerate, inverted and sliver lists of `report` (and to
+/// min_quality, or sets it NaN without compute_min_quality); coordinates are not checked.
+/// Lists keep the smallest indices whatever the order of `tets` and the thread count.
+void check_tet_shapes(const Positions& positions, std::span<const Tet> tets,
+                      std::span<const Index> index, const ValidationOptions& options,
+                      ValidationReport& report);
+
+}  // namespace detail
 
 /// Error (kInvalidMesh) naming the first defect when the report is not clean, with
 /// `what` (a file or object name) as the message prefix; ok otherwise. Slivers pass.

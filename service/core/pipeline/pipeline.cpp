@@ -15,6 +15,7 @@
 #include "core/depth/depth_solver.hpp"
 #include "core/detect/detect.hpp"
 #include "core/detect/surface_detect.hpp"
+#include "core/mesh/shape_check.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
 #include "core/response/response.hpp"
@@ -55,6 +56,8 @@ struct SceneObject {
   std::optional<Surface> surface;
   /// The tets along a Morton curve of their rest centroids, for the per-frame shape check.
   TetCheckOrder check_order;
+  /// The per-frame shape check (tet objects): reads check_order and topology.node_tets.
+  std::unique_ptr<ShapeCheck> shape_check;
   Positions positions;   ///< current frame's positions
   Positions velocities;  ///< current frame's velocities, or empty (at rest)
   std::unique_ptr<CollisionBody> body;
@@ -186,6 +189,8 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
         slot->depth = std::make_unique<DepthSolver>(std::span<const Tet>(slot->mesh.tets),
                                                     slot->topology, depth_options);
       });
+  slot->shape_check = std::make_unique<ShapeCheck>(slot->check_order, slot->topology.node_tets,
+                                                   slot->mesh.num_nodes(), kFrameValidation);
   impl_->objects[object] = std::move(slot);
   return {};
 }
@@ -266,11 +271,9 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     // The registration's checks on the new positions: NaN, and inverted or degenerate
     // tets (degenerate triangles for a surface).
     const Status shape =
-        obj.surface
-            ? require_valid_surface(validate_surface(state.positions, obj.surface->mesh.triangles),
-                                    who)
-            : require_valid(validate_positions(state.positions, obj.check_order, kFrameValidation),
-                            who);
+        obj.surface ? require_valid_surface(
+                          validate_surface(state.positions, obj.surface->mesh.triangles), who)
+                    : require_valid(obj.shape_check->check(state.positions), who);
     if (!shape) {
       out.errors.push_back({state.object, shape.error()});
       continue;

@@ -1,4 +1,5 @@
-// Internal to service/core/detect: a sorted set of small indices without a sort.
+// Internal to service/core: a sorted set of small indices without a sort (detection and
+// the per-frame shape check).
 #pragma once
 
 #include <algorithm>

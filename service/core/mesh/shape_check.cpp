@@ -1,0 +1,260 @@
+#include "core/mesh/shape_check.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "core/common/parallel_chunks.hpp"
+#include "core/common/target_clones.hpp"
+#include "core/mesh/sorted_index_set.hpp"
+
+namespace tc {
+namespace {
+
+/// Items per chunk of the parallel radius loops.
+constexpr std::size_t kRadiusChunk = 4096;
+
+/// Tets per call of detail::motion_radii().
+constexpr std::size_t kRadiusLanes = 8;
+
+/// More than one node in this many moved: check every tet (a rotation, a large step).
+constexpr std::size_t kBusyFraction = 4;
+
+}  // namespace
+
+namespace detail {
+
+/// certified_motion_radius() of kRadiusLanes tets at once, in plain lane loops the compiler
+/// vectorises (AVX2 and baseline copies; the same operations in the same order in every
+/// copy and lane, so the same bits). The bound: see the header. q^2 = 432 (6V)^2 / l2^3
+/// with l2 the sum of the six squared edge lengths, so the tet keeps q >= s while
+/// sqrt(432) W(d) >= s L(d)^(3/2), W and L the bounds on 6V and l2 after each node moved
+/// by d:
+///   W(d) = v6 - grad d - 4 arms d^2 - 8 d^3,   L(d) = l2 + 4 lengths d + 24 d^2.
+/// On [0, h] both are linear at worst: W(d) >= v6 - a d with a = grad + 4 arms h + 8 h^2,
+/// and L^(3/2), convex, lies below its chord c0 + c1 d; the linear condition then gives d
+/// in closed form. W > 0 needs d < v6 / grad; of a few h below that, the best is taken.
+/// The margin on s (0.1% and 1e-6) is far above the rounding of this bound and of
+/// tet_quality().
+TC_TARGET_CLONES_AVX2
+void motion_radii(const double* x, const Tet* tets, double quality, double* out) {
+  constexpr int L = static_cast<int>(kRadiusLanes);
+  double p[4][3][L];
+  for (int l = 0; l < L; ++l)
+    for (int j = 0; j < 4; ++j)
+      for (int c = 0; c < 3; ++c) p[j][c][l] = x[3 * static_cast<std::ptrdiff_t>(tets[l][j]) + c];
+  const double s = 1.001 * quality + 1e-6;
+  const double root432 = std::sqrt(432.0);
+  for (int l = 0; l < L; ++l) {
+    double e[3][3], f[3][3];  // edges from node 0; edges 1-2, 1-3, 2-3
+    for (int c = 0; c < 3; ++c) {
+      e[0][c] = p[1][c][l] - p[0][c][l];
+      e[1][c] = p[2][c][l] - p[0][c][l];
+      e[2][c] = p[3][c][l] - p[0][c][l];
+      f[0][c] = p[2][c][l] - p[1][c][l];
+      f[1][c] = p[3][c][l] - p[1][c][l];
+      f[2][c] = p[3][c][l] - p[2][c][l];
+    }
+    // 6V = e1 . (e2 x e3); its gradient with respect to node i is g_i, g0 = -(g1+g2+g3).
+    double g[4][3];
+    for (int k = 0; k < 3; ++k) {
+      const double* u = e[(k + 1) % 3];
+      const double* v = e[(k + 2) % 3];
+      g[k + 1][0] = u[1] * v[2] - u[2] * v[1];
+      g[k + 1][1] = u[2] * v[0] - u[0] * v[2];
+      g[k + 1][2] = u[0] * v[1] - u[1] * v[0];
+    }
+    for (int c = 0; c < 3; ++c) g[0][c] = -(g[1][c] + g[2][c] + g[3][c]);
+    const double v6 = e[0][0] * g[1][0] + e[0][1] * g[1][1] + e[0][2] * g[1][2];
+    double grad = 0.0, arms = 0.0, lengths = 0.0, l2 = 0.0;
+    for (int k = 0; k < 4; ++k)
+      grad += std::sqrt(g[k][0] * g[k][0] + g[k][1] * g[k][1] + g[k][2] * g[k][2]);
+    for (int k = 0; k < 3; ++k) {
+      const double a2 = e[k][0] * e[k][0] + e[k][1] * e[k][1] + e[k][2] * e[k][2];
+      const double b2 = f[k][0] * f[k][0] + f[k][1] * f[k][1] + f[k][2] * f[k][2];
+      arms += std::sqrt(a2);
+      lengths += std::sqrt(b2);
+      l2 += a2 + b2;
+    }
+    lengths += arms;
+    const double c0 = l2 * std::sqrt(l2);  // L(0)^(3/2)
+    const double top = v6 / grad;
+    double best = 0.0;
+    for (const double fraction : {1.0, 0.7, 0.5, 0.3}) {
+      const double h = fraction * top;
+      const double a = grad + h * (4.0 * arms + 8.0 * h);
+      const double lh = l2 + h * (4.0 * lengths + 24.0 * h);
+      const double c1 = (lh * std::sqrt(lh) - c0) / h;
+      const double d = (root432 * v6 - s * c0) / (root432 * a + s * c1);
+      const double r = h < d ? h : d;
+      best = best < r ? r : best;
+    }
+    // Not good enough as it is (or not finite): no radius.
+    const bool good = v6 > 0.0 && grad > 0.0 && c0 < std::numeric_limits<double>::infinity() &&
+                      root432 * v6 >= s * c0;
+    out[l] = good ? best : -1.0;
+  }
+}
+
+}  // namespace detail
+
+double certified_motion_radius(const Positions& positions, const Tet& tet, double quality) {
+  Tet batch[kRadiusLanes];
+  for (Tet& t : batch) t = tet;
+  double out[kRadiusLanes];
+  detail::motion_radii(positions.data(), batch, quality, out);
+  return out[0];
+}
+
+namespace {
+
+/// The radii of order[begin, end), kRadiusLanes at a time, in parallel chunks.
+template <typename PlaceOf>
+void compute_radii(const Positions& x, const std::vector<Tet>& tets, double quality,
+                   std::size_t count, const PlaceOf& place_of, std::vector<double>& radius) {
+  detail::for_chunks(count, kRadiusChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
+    Tet batch[kRadiusLanes];
+    double out[kRadiusLanes];
+    for (std::size_t j = begin; j < end; j += kRadiusLanes) {
+      const std::size_t lanes = std::min<std::size_t>(kRadiusLanes, end - j);
+      for (std::size_t l = 0; l < kRadiusLanes; ++l)
+        batch[l] = tets[place_of(j + std::min(l, lanes - 1))];
+      detail::motion_radii(x.data(), batch, quality, out);
+      for (std::size_t l = 0; l < lanes; ++l) radius[place_of(j + l)] = out[l];
+    }
+  });
+}
+
+}  // namespace
+
+ShapeCheck::ShapeCheck(const TetCheckOrder& order, const Csr& node_tets, Index num_nodes,
+                       const ValidationOptions& options)
+    : order_(order),
+      node_tets_(node_tets),
+      num_nodes_(num_nodes),
+      options_(options),
+      quality_(std::max(options.sliver_quality, options.degenerate_quality)) {
+  if (node_tets.rows() != num_nodes)
+    throw std::invalid_argument("ShapeCheck: node_tets has " + std::to_string(node_tets.rows()) +
+                                " rows for " + std::to_string(num_nodes) + " nodes");
+  if (order.index.size() != order.tets.size())
+    throw std::invalid_argument("ShapeCheck: " + std::to_string(order.index.size()) +
+                                " indices for " + std::to_string(order.tets.size()) + " tets");
+  if (options.compute_min_quality)
+    throw std::invalid_argument(
+        "ShapeCheck: compute_min_quality needs every tet; use validate_positions()");
+  position_of_.assign(order.tets.size(), 0);
+  for (std::size_t k = 0; k < order.index.size(); ++k)
+    position_of_[static_cast<std::size_t>(order.index[k])] = static_cast<Index>(k);
+}
+
+double ShapeCheck::node_radius2(Index node) const {
+  const auto tets = node_tets_.row(node);
+  if (tets.empty()) return std::numeric_limits<double>::max();  // only NaN moves it
+  double r = std::numeric_limits<double>::infinity();
+  for (const Index t : tets) r = std::min(r, radius_[static_cast<std::size_t>(position_of_[t])]);
+  return r < 0.0 ? -1.0 : r * r;
+}
+
+void ShapeCheck::rebuild(const Positions& positions) {
+  reference_ = positions;
+  radius_.resize(order_.tets.size());
+  compute_radii(
+      reference_, order_.tets, quality_, radius_.size(), [](std::size_t k) { return k; }, radius_);
+  radius2_.resize(static_cast<std::size_t>(num_nodes_));
+  detail::for_chunks(radius2_.size(), kRadiusChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t i = begin; i < end; ++i)
+                         radius2_[i] = node_radius2(static_cast<Index>(i));
+                     });
+  last_.rebuilt = true;
+}
+
+ValidationReport ShapeCheck::check_all(const Positions& positions, bool rebuild_reference) {
+  ValidationReport report = validate_positions(positions, order_, options_);
+  last_.full = true;
+  if (report.nonfinite_node.count == 0) last_.checked_tets = order_.tets.size();
+  if (rebuild_reference && report.clean()) rebuild(positions);
+  return report;
+}
+
+ValidationReport ShapeCheck::check(const Positions& positions) {
+  if (positions.cols() != num_nodes_)
+    throw std::invalid_argument("ShapeCheck: " + std::to_string(positions.cols()) +
+                                " positions for " + std::to_string(num_nodes_) + " nodes");
+  last_ = {};
+  if (reference_.cols() == 0) return check_all(positions, true);
+
+  // The mean displacement from the reference: a translation changes no tet's shape.
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const double* x = positions.data();
+  const double* r = reference_.data();
+  double shift[3] = {0.0, 0.0, 0.0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) shift[c] += x[3 * i + c] - r[3 * i + c];
+  for (double& s : shift) s /= static_cast<double>(n);
+  // A NaN or an infinite coordinate makes the sum non-finite: the full check names it.
+  if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
+    return check_all(positions, false);
+
+  moved_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = x[3 * i] - r[3 * i] - shift[0];
+    const double dy = x[3 * i + 1] - r[3 * i + 1] - shift[1];
+    const double dz = x[3 * i + 2] - r[3 * i + 2] - shift[2];
+    if (!(dx * dx + dy * dy + dz * dz <= radius2_[i])) moved_.push_back(static_cast<Index>(i));
+  }
+  last_.moved_nodes = moved_.size();
+  if (kBusyFraction * moved_.size() > n) {
+    ++busy_streak_;
+    return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
+  }
+  busy_streak_ = 0;
+
+  // The tets of the nodes that moved, in check order.
+  places_.clear();
+  {
+    detail::SortedIndexSet set(place_bits_, order_.tets.size());
+    for (const Index i : moved_)
+      for (const Index t : node_tets_.row(i)) set.insert(position_of_[t]);
+    set.drain(places_);
+  }
+  tets_.clear();
+  index_.clear();
+  for (const Index k : places_) {
+    tets_.push_back(order_.tets[static_cast<std::size_t>(k)]);
+    index_.push_back(order_.index[static_cast<std::size_t>(k)]);
+  }
+  ValidationReport report;
+  report.min_quality = std::numeric_limits<double>::quiet_NaN();
+  detail::check_tet_shapes(positions, tets_, index_, options_, report);
+  last_.checked_tets = places_.size();
+  if (!report.clean() || moved_.empty()) return report;
+
+  // Accepted: the nodes that moved join the reference (moved back by the shift, like the
+  // rest of it), and the radii of their tets and of those tets' nodes are recomputed.
+  for (const Index i : moved_)
+    for (int c = 0; c < 3; ++c) reference_(c, i) = positions(c, i) - shift[c];
+  compute_radii(
+      reference_, order_.tets, quality_, places_.size(),
+      [&](std::size_t j) { return static_cast<std::size_t>(places_[j]); }, radius_);
+  nodes_.clear();
+  {
+    detail::SortedIndexSet set(node_bits_, static_cast<std::size_t>(num_nodes_));
+    for (const Tet& t : tets_)
+      for (const Index v : t) set.insert(v);
+    set.drain(nodes_);
+  }
+  detail::for_chunks(nodes_.size(), kRadiusChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t j = begin; j < end; ++j)
+                         radius2_[static_cast<std::size_t>(nodes_[j])] = node_radius2(nodes_[j]);
+                     });
+  return report;
+}
+
+}  // namespace tc

@@ -1,0 +1,90 @@
+// The per-frame shape check of one object, at a cost that follows the motion.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
+#include "core/mesh/validate.hpp"
+
+namespace tc {
+
+/// How far each node of a tet may move from `positions` (all by at most the returned
+/// distance, in any directions) while the tet surely keeps a quality of at least
+/// `quality` (tet_quality(), with a margin for rounding: 1.001 * quality + 1e-6 is
+/// proven). Negative when the tet is not that good as it is. The bound: 6V changes by at
+/// most delta * sum|grad_i 6V| + 4 delta^2 (|e1| + |e2| + |e3|) + 8 delta^3 (the
+/// triple product's expansion, e_k the edges from node 0, each moving by at most
+/// 2 delta), and each edge length by at most 2 delta. The radius solves that bound made
+/// linear on [0, h] (the cubic's terms at h, the edge term's chord), for a few h; ~10% of
+/// the edge for a regular tet, within 2x of the largest radius the bound allows.
+double certified_motion_radius(const Positions& positions, const Tet& tet, double quality);
+
+/// validate_positions() for the successive states of one object, the same reports at a
+/// cost that follows how far the nodes moved.
+///
+/// A reference shape is kept (the last accepted positions of each node, up to one
+/// translation of the whole object) with, per node, a radius r_i = min over its tets of
+/// certified_motion_radius() at the reference (the sliver threshold as the quality). A
+/// new state is compared with the reference after removing the mean displacement (a
+/// translation changes no shape): a tet whose four nodes all stayed within their radii
+/// is surely neither degenerate, inverted nor a sliver, and only the tets of the nodes
+/// that moved further are checked. When the state is clean, those nodes become part of
+/// the reference and the radii around them are recomputed. A still or rigidly moving
+/// object costs two reads of its positions a frame; the tets near a contact cost what
+/// they cost before plus their new radii.
+///
+/// When more than a quarter of the nodes moved (a rotation, a large deformation) every
+/// tet is checked as by validate_positions(), and the reference is rebuilt on the 1st,
+/// 2nd, 4th, 8th, ... such state in a row (its radii cost a few full checks, so an object
+/// that keeps moving pays for them less and less often).
+///
+/// The reports are those of validate_positions(positions, order, options) field for field
+/// (min_quality only when options.compute_min_quality is false: NaN, as there), whatever
+/// the thread count. `order` and `node_tets` (Topology::node_tets of the same tets) are
+/// read, not copied: they must outlive the check.
+class ShapeCheck {
+ public:
+  /// What the last check() did.
+  struct Stats {
+    std::size_t moved_nodes = 0;   ///< nodes beyond their radius (0 on a full check)
+    std::size_t checked_tets = 0;  ///< tets whose shape was computed
+    bool full = false;             ///< every tet was checked
+    bool rebuilt = false;          ///< the reference was rebuilt from this state
+  };
+
+  /// Throws std::invalid_argument when `node_tets` does not have `num_nodes` rows.
+  ShapeCheck(const TetCheckOrder& order, const Csr& node_tets, Index num_nodes,
+             const ValidationOptions& options);
+
+  /// The report of validate_positions(positions, order, options). Throws
+  /// std::invalid_argument when `positions` does not have num_nodes columns.
+  ValidationReport check(const Positions& positions);
+
+  [[nodiscard]] const Stats& last() const { return last_; }
+
+ private:
+  ValidationReport check_all(const Positions& positions, bool rebuild);
+  void rebuild(const Positions& positions);
+  double node_radius2(Index node) const;
+
+  const TetCheckOrder& order_;
+  const Csr& node_tets_;
+  Index num_nodes_;
+  ValidationOptions options_;
+  double quality_;                  ///< the quality the radii certify
+  std::vector<Index> position_of_;  ///< mesh tet -> its place in order_.tets
+  Positions reference_;             ///< 3 x n; empty until a clean state was seen
+  std::vector<double> radius_;      ///< per place in order_: certified radius, < 0: none
+  std::vector<double> radius2_;     ///< per node: squared radius, -1: always check
+  std::vector<std::uint64_t> place_bits_, node_bits_;  ///< bitmaps, all 0 between calls
+  std::vector<Index> moved_, places_, nodes_;
+  std::vector<Tet> tets_;
+  std::vector<Index> index_;
+  std::size_t busy_streak_ = 0;  ///< full checks in a row
+  Stats last_;
+};
+
+}  // namespace tc

@@ -1,0 +1,279 @@
+// service/core/mesh/shape_check: the per-frame shape check that pays for what moved gives
+// the full check's reports, and its motion radii are proven.
+#include "core/mesh/shape_check.hpp"
+
+#include <gtest/gtest.h>
+#include <Eigen/Geometry>
+
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "core/mesh/geometry.hpp"
+#include "core/mesh/topology.hpp"
+#include "test_meshes.hpp"
+
+namespace tc {
+namespace {
+
+ValidationOptions frame_options() {
+  ValidationOptions o;
+  o.compute_min_quality = false;
+  return o;
+}
+
+void expect_same_list(const DefectList& a, const DefectList& b, const char* what) {
+  EXPECT_EQ(a.count, b.count) << what;
+  EXPECT_EQ(a.first, b.first) << what;
+}
+
+void expect_same_report(const ValidationReport& got, const ValidationReport& want) {
+  expect_same_list(got.index_out_of_range, want.index_out_of_range, "index_out_of_range");
+  expect_same_list(got.repeated_node, want.repeated_node, "repeated_node");
+  expect_same_list(got.nonfinite_node, want.nonfinite_node, "nonfinite_node");
+  expect_same_list(got.degenerate, want.degenerate, "degenerate");
+  expect_same_list(got.inverted, want.inverted, "inverted");
+  expect_same_list(got.sliver, want.sliver, "sliver");
+  // NaN (not computed) after a shape check, 1 after a non-finite coordinate.
+  if (!(std::isnan(got.min_quality) && std::isnan(want.min_quality))) {
+    EXPECT_EQ(got.min_quality, want.min_quality);
+  }
+}
+
+/// A mesh with its check order and topology, and a ShapeCheck on them.
+struct Fixture {
+  explicit Fixture(TetMesh m)
+      : mesh(std::move(m)),
+        order(make_tet_check_order(mesh.positions, mesh.tets)),
+        topology(build_topology(mesh.tets, mesh.num_nodes())),
+        check(order, topology.node_tets, mesh.num_nodes(), frame_options()) {}
+
+  /// check() and validate_positions() agree on `x`; returns check()'s report.
+  ValidationReport both(const Positions& x) {
+    const ValidationReport got = check.check(x);
+    expect_same_report(got, validate_positions(x, order, frame_options()));
+    return got;
+  }
+
+  TetMesh mesh;
+  TetCheckOrder order;
+  Topology topology;
+  ShapeCheck check;
+};
+
+Eigen::Vector3d random_unit(std::mt19937_64& rng) {
+  std::normal_distribution<double> g;
+  Eigen::Vector3d v(g(rng), g(rng), g(rng));
+  return v.normalized();
+}
+
+TEST(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
+  TetMesh m = test::single_tet();
+  m.positions.col(0) << 1, 1, 1;
+  m.positions.col(1) << 1, -1, -1;
+  m.positions.col(2) << -1, 1, -1;
+  m.positions.col(3) << -1, -1, 1;
+  Tet t = m.tets[0];
+  if (signed_volume(m.positions, t) < 0) std::swap(t[0], t[1]);
+  const double edge = std::sqrt(8.0);
+  const double r = certified_motion_radius(m.positions, t, 0.01);
+  EXPECT_GT(r, 0.05 * edge);  // useful: a good tet is not rechecked for small motions
+  EXPECT_LT(r, 0.25 * edge);  // and sound: at 0.29 edge the tet can be flat
+  // Scale-free: the same fraction at any size and offset.
+  Positions far = m.positions * 1e-3;
+  far.colwise() += Eigen::Vector3d(50, -20, 7);
+  EXPECT_NEAR(certified_motion_radius(far, t, 0.01), 1e-3 * r, 1e-9 * r);
+}
+
+TEST(CertifiedMotionRadius, NoMotionWithinItLeavesAGoodTet) {
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int tested = 0;
+  double worst = std::numeric_limits<double>::infinity();
+  while (tested < 400) {
+    Positions p(3, 4);
+    for (int j = 0; j < 4; ++j) p.col(j) << u(rng), u(rng), u(rng);
+    Tet t{0, 1, 2, 3};
+    if (signed_volume(p, t) < 0) std::swap(t[0], t[1]);
+    const double q = tet_quality(p, t);
+    const double r = certified_motion_radius(p, t, 0.01);
+    if (q < 0.01001) {  // below the radii's margin (1.001 * 0.01 + 1e-6)
+      EXPECT_LT(r, 0.0) << "quality " << q;
+      continue;
+    }
+    if (r < 0.0) continue;  // just above the threshold: within the margin
+    ++tested;
+    // The motions that flatten the tet fastest move each node by r against the gradient
+    // of its volume; then random directions, all at full length.
+    const Eigen::Vector3d e1 = p.col(t[1]) - p.col(t[0]), e2 = p.col(t[2]) - p.col(t[0]),
+                          e3 = p.col(t[3]) - p.col(t[0]);
+    const Eigen::Vector3d g1 = e2.cross(e3), g2 = e3.cross(e1), g3 = e1.cross(e2);
+    const Eigen::Vector3d g[4] = {-(g1 + g2 + g3), g1, g2, g3};
+    for (int trial = 0; trial < 200; ++trial) {
+      Positions moved = p;
+      for (int j = 0; j < 4; ++j) {
+        const Eigen::Vector3d dir =
+            trial == 0 ? Eigen::Vector3d(-g[j].normalized()) : random_unit(rng);
+        moved.col(t[static_cast<std::size_t>(j)]) += r * dir;
+      }
+      const double q2 = tet_quality(moved, t);
+      worst = std::min(worst, q2);
+      ASSERT_GE(q2, 0.01) << "quality " << q << " radius " << r << " trial " << trial;
+    }
+  }
+  EXPECT_GT(worst, 0.01);
+}
+
+TEST(ShapeCheck, TheSameReportsAsTheFullCheckForEveryKindOfMotion) {
+  Fixture f(test::structured_box(6, 5, 4, {0, 0, 0}, {0.6, 0.5, 0.4}));
+  const Positions rest = f.mesh.positions;
+  const std::size_t m = f.mesh.tets.size();
+
+  f.both(rest);  // the first state: every tet, and the reference
+  EXPECT_TRUE(f.check.last().full);
+  EXPECT_TRUE(f.check.last().rebuilt);
+
+  f.both(rest);  // still: nothing moved, nothing checked
+  EXPECT_FALSE(f.check.last().full);
+  EXPECT_EQ(f.check.last().moved_nodes, 0u);
+  EXPECT_EQ(f.check.last().checked_tets, 0u);
+
+  Positions shifted = rest;
+  shifted.colwise() += Eigen::Vector3d(3.0, -1.0, 0.25);  // a translation changes no shape
+  f.both(shifted);
+  EXPECT_EQ(f.check.last().checked_tets, 0u);
+
+  // A local dent: the tets around one node only.
+  Positions dent = shifted;
+  const Index node = 60;
+  dent(2, node) -= 0.02;
+  f.both(dent);
+  EXPECT_EQ(f.check.last().moved_nodes, 1u);
+  EXPECT_EQ(f.check.last().checked_tets,
+            static_cast<std::size_t>(f.topology.node_tets.row(node).size()));
+
+  // The same node pushed through its neighbours: inverted tets, named as by the full check.
+  Positions through = dent;
+  through(2, node) -= 0.3;
+  const ValidationReport bad = f.both(through);
+  EXPECT_GT(bad.inverted.count, 0u);
+  EXPECT_FALSE(f.check.last().full);
+  // A rejected state does not become the reference: the dent is still compared with it.
+  f.both(dent);
+  EXPECT_EQ(f.check.last().moved_nodes, 0u);
+
+  // A NaN anywhere, an infinite coordinate.
+  Positions nan = dent;
+  nan(1, 7) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(f.both(nan).nonfinite_node.count, 1u);
+  Positions inf = dent;
+  inf(0, 3) = std::numeric_limits<double>::infinity();
+  inf(0, 9) = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(f.both(inf).nonfinite_node.count, 2u);
+
+  // A node moved towards a face until its tets are slivers, then degenerate.
+  for (const double depth : {0.05, 0.08, 0.0999, 0.1}) {
+    Positions flat = dent;
+    flat(2, 61) -= depth;
+    f.both(flat);
+  }
+
+  // A rotation moves every node: all tets, and a new reference.
+  const double a = 0.3;
+  Eigen::Matrix3d rot;
+  rot << std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a), 0, 0, 0, 1;
+  const Positions turned = rot * dent;
+  f.both(turned);
+  EXPECT_TRUE(f.check.last().full);
+  EXPECT_EQ(f.check.last().checked_tets, m);
+  EXPECT_TRUE(f.check.last().rebuilt);
+  f.both(turned);
+  EXPECT_EQ(f.check.last().checked_tets, 0u);
+}
+
+TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
+  // Each step moves a random patch of nodes by a random amount, from a hair to far beyond
+  // an edge; some steps are rejected, others rotate or translate the whole object.
+  Fixture f(test::ball_mesh(4, 0.2));
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Positions x = f.mesh.positions;
+  f.both(x);
+  const Index n = f.mesh.num_nodes();
+  std::size_t incremental = 0, rejected = 0;
+  for (int step = 0; step < 400; ++step) {
+    Positions next = x;
+    const double kind = u(rng);
+    if (kind < 0.05) {
+      const double a = 0.05 * u(rng);
+      const Eigen::Matrix3d rot = Eigen::AngleAxisd(a, random_unit(rng)).toRotationMatrix();
+      next = rot * x;
+    } else if (kind < 0.1) {
+      next.colwise() += 0.1 * random_unit(rng);
+    } else {
+      const Index centre = static_cast<Index>(u(rng) * n) % n;
+      const double radius = 0.02 + 0.08 * u(rng);
+      const double amount = 0.05 * std::pow(10.0, -4.0 * u(rng));  // 5e-6 .. 5e-2
+      const Eigen::Vector3d dir = random_unit(rng);
+      for (Index i = 0; i < n; ++i) {
+        const double d = (x.col(i) - x.col(centre)).norm();
+        if (d < radius) next.col(i) += amount * (1.0 - d / radius) * dir;
+      }
+      if (u(rng) < 0.05) next(static_cast<Index>(u(rng) * 3) % 3, centre) = std::nan("");
+    }
+    const ValidationReport r = f.both(next);
+    if (!f.check.last().full) ++incremental;
+    if (r.clean()) {
+      x = next;
+    } else {
+      ++rejected;
+    }
+  }
+  EXPECT_GT(incremental, 200u);  // the walk did exercise the incremental path
+  EXPECT_GT(rejected, 5u);       // and states that must be rejected
+}
+
+TEST(ShapeCheck, ThreadCountChangesNothing) {
+  const TetMesh mesh = test::ball_mesh(6, 1.0);
+  std::vector<std::vector<std::size_t>> stats;
+  for (const int threads : {1, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(threads));
+    Fixture f(mesh);
+    std::vector<std::size_t> s;
+    Positions x = f.mesh.positions;
+    for (int step = 0; step < 30; ++step) {
+      for (Index i = 0; i < x.cols(); i += 7) x(step % 3, i) += 1e-3 * std::sin(i + step);
+      const ValidationReport r = f.both(x);
+      s.push_back(r.sliver.count);
+      s.push_back(f.check.last().moved_nodes);
+      s.push_back(f.check.last().checked_tets);
+    }
+    stats.push_back(s);
+  }
+  EXPECT_EQ(stats[0], stats[1]);
+}
+
+TEST(ShapeCheck, BadArgumentsAreNamed) {
+  const TetMesh mesh = test::cube_six_tets();
+  const TetCheckOrder order = make_tet_check_order(mesh.positions, mesh.tets);
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  EXPECT_THROW(ShapeCheck(order, topo.node_tets, mesh.num_nodes() + 1, frame_options()),
+               std::invalid_argument);
+  EXPECT_THROW(ShapeCheck(order, topo.node_tets, mesh.num_nodes(), ValidationOptions{}),
+               std::invalid_argument);
+  ShapeCheck check(order, topo.node_tets, mesh.num_nodes(), frame_options());
+  try {
+    check.check(Positions::Zero(3, 3));
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("3 positions for 8 nodes"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace tc
