@@ -404,6 +404,52 @@ TEST(Detect, OptionsSwitchOffNodesAndEdges) {
   EXPECT_TRUE(c.edges_a_in_b.empty() && c.edges_b_in_a.empty());
 }
 
+TEST(Detect, EdgeNeedLeavesOutTheDirectionsItDeclines) {
+  // The pipeline asks, once the overlaps are known, which directions the response will
+  // answer with segments; the other directions' edges are not computed, the rest is the same.
+  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
+  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
+  ba.set_positions(a.mesh.positions);
+  bb.set_positions(b.mesh.positions);
+  Detector detector;
+  PairContacts full;
+  detector.detect(ba, bb, full);
+  ASSERT_FALSE(full.edges_a_in_b.empty());
+  ASSERT_FALSE(full.edges_b_in_a.empty());
+  for (const std::array<bool, 2> need :
+       {std::array<bool, 2>{true, false}, std::array<bool, 2>{false, true},
+        std::array<bool, 2>{false, false}}) {
+    PairContacts c;
+    int asked = 0;
+    detector.detect(ba, bb, c, nullptr, [&](const PairContacts& so_far) {
+      ++asked;
+      EXPECT_EQ(so_far.overlapping, full.overlapping);  // what the choice reads is complete
+      EXPECT_EQ(so_far.marked_a, full.marked_a);
+      EXPECT_EQ(so_far.marked_b, full.marked_b);
+      return need;
+    });
+    EXPECT_EQ(asked, 1);
+    EXPECT_EQ(c.overlapping, full.overlapping);
+    expect_same_nodes(c.nodes_a_in_b, full.nodes_a_in_b, "nodes_a_in_b");
+    expect_same_nodes(c.nodes_b_in_a, full.nodes_b_in_a, "nodes_b_in_a");
+    expect_same_edges(c.edges_a_in_b, need[0] ? full.edges_a_in_b : std::vector<IntrudingEdge>{},
+                      "edges_a_in_b");
+    expect_same_edges(c.edges_b_in_a, need[1] ? full.edges_b_in_a : std::vector<IntrudingEdge>{},
+                      "edges_b_in_a");
+  }
+  // Without overlap nothing is asked.
+  const Object far(test::structured_box(2, 2, 2, Vector3d(5, 0, 0), Vector3d(6, 1, 1)));
+  CollisionBody bf(far.mesh.tets, far.topo);
+  bf.set_positions(far.mesh.positions);
+  PairContacts none;
+  detector.detect(ba, bf, none, nullptr, [](const PairContacts&) -> std::array<bool, 2> {
+    ADD_FAILURE() << "asked without overlap";
+    return {true, true};
+  });
+  EXPECT_TRUE(none.empty());
+}
+
 class ThreadCount : public ::testing::TestWithParam<BroadPhaseKind> {};
 
 TEST_P(ThreadCount, OutputIsBitIdenticalWith1To4Threads) {

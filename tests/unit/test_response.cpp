@@ -287,6 +287,28 @@ TEST(AutoRule, CoarseBoxOnFineBoxUsesSegmentsFineBoxUsesPoints) {
   EXPECT_NEAR(df.contact_extent, std::sqrt(2.0) * 0.42, 0.1);
 }
 
+TEST(AutoRule, ResponseKindsAreTheKindsTheResponseUses) {
+  // The pipeline asks response_kinds() before the intrusion scans to skip the edges of
+  // point directions: it must be the response's own choice, direction by direction.
+  for (const int cells : {1, 2, 7}) {
+    const BoxPair pair = box_pair(0.05, 0.21, cells);
+    const PairContacts c = test::brute_force_contacts(pair.a, pair.b);
+    for (const ResponseKind kind :
+         {ResponseKind::kPoint, ResponseKind::kSegment, ResponseKind::kAuto}) {
+      ResponseOptions o;
+      o.kind = kind;
+      const PairResponse r = respond(pair.a, pair.b, c, o);
+      const std::array<ResponseKind, 2> kinds =
+          response_kinds(pair.a.view(), c.marked_a, pair.b.view(), c.marked_b, o);
+      EXPECT_EQ(kinds[0], r.used_a_in_b) << cells << " cells";
+      EXPECT_EQ(kinds[1], r.used_b_in_a) << cells << " cells";
+      if (kind != ResponseKind::kAuto) {
+        EXPECT_EQ(kinds[0], kind);
+      }
+    }
+  }
+}
+
 // ---- Deep penetration ----------------------------------------------------------------
 
 TEST(DeepPenetration, ABoxWhollyInsideIsPushedTowardTheNearestFace) {

@@ -12,8 +12,8 @@
 
 #include "core/common/chunked.hpp"
 #include "core/detect/edge_hits.hpp"
-#include "core/mesh/sorted_index_set.hpp"
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/sorted_index_set.hpp"
 #include "core/mesh/spatial_order.hpp"
 
 namespace tc {
@@ -289,7 +289,8 @@ void Detector::clear_slots(Geometry& g) {
   for (const Index t : g.tets) g.slot[t] = -1;
 }
 
-void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats) {
+void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats,
+                      const EdgeNeed& need_edges) {
   const auto start = Clock::now();
   DetectStats st;
   out.overlapping.clear();
@@ -466,7 +467,9 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     rows_b_.items[counts_[geom_b_.slot[p.tet_b]]++] = geom_a_.slot[p.tet_a];
 
   const auto intrusion_start = Clock::now();
-  if (!out.overlapping.empty() && (options_.intruding_nodes || options_.intruding_edges)) {
+  std::array<bool, 2> edges = {options_.intruding_edges, options_.intruding_edges};
+  if (options_.intruding_edges && need_edges && !out.overlapping.empty()) edges = need_edges(out);
+  if (!out.overlapping.empty() && (options_.intruding_nodes || edges[0] || edges[1])) {
     for (int side = 0; side < 2; ++side) {
       const CollisionBody& x = side == 0 ? a : b;
       const CollisionBody& y = side == 0 ? b : a;
@@ -477,7 +480,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
       for (std::size_t r = 0; r < marked.size(); ++r) row_of_[marked[r]] = static_cast<Index>(r);
       if (options_.intruding_nodes)
         intruding_nodes(x, marked, rows, y, gy, side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
-      if (options_.intruding_edges)
+      if (edges[static_cast<std::size_t>(side)])
         intruding_edges(x, marked, rows, y, gy, side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
       for (const Index t : marked) row_of_[t] = -1;
     }

@@ -11,6 +11,7 @@
 // whatever the TBB thread count. Units: metres throughout. See docs/DETECTION.md.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -142,11 +143,19 @@ class Detector {
   [[nodiscard]] const DetectOptions& options() const { return options_; }
   void set_options(const DetectOptions& options) { options_ = options; }
 
+  /// Which intruding edges a pair needs, {A's edges in B, B's edges in A}, asked once its
+  /// overlapping pairs and marked tets are in `out` and before the intrusion scans (the
+  /// response's choice between points and segments reads the marked tets).
+  using EdgeNeed = std::function<std::array<bool, 2>(const PairContacts& out)>;
+
   /// Contacts of the ordered pair (a, b) for the current frame of both bodies
   /// (set_positions() called). When the object boxes do not touch, only that test runs.
-  /// @param[out] out    cleared, then filled (see PairContacts)
-  /// @param[out] stats  optional counts and timings
-  void detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats = nullptr);
+  /// @param[out] out         cleared, then filled (see PairContacts)
+  /// @param[out] stats       optional counts and timings
+  /// @param[in]  need_edges  optional: the directions whose intruding edges are computed,
+  ///                         when DetectOptions::intruding_edges is on (unset: both)
+  void detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats = nullptr,
+              const EdgeNeed& need_edges = {});
 
   /// Broad-phase candidates of the last detect() call, sorted by (tet_a, tet_b).
   [[nodiscard]] std::span<const TetPair> candidates() const { return candidates_; }

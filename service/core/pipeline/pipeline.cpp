@@ -311,6 +311,17 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   });
   out.stats.broad_ms += ms_since(t0);
 
+  // The response settings of a pair: the two objects' and the service's.
+  const auto response_options = [&](const SceneObject& a, const SceneObject& b) {
+    ResponseOptions options = pair_options(a.params, b.params);
+    if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
+    if (impl_->config.density_threshold > 0.0)
+      options.auto_threshold = impl_->config.density_threshold;
+    options.record_contacts = impl_->config.record_contacts;
+    options.evaluation = impl_->config.evaluation;
+    return options;
+  };
+
   // 3. Detection per pair (the detector's inner loops run on TBB).
   auto& contacts = impl_->contacts;
   if (contacts.size() < pairs.size()) contacts.resize(pairs.size());
@@ -333,7 +344,18 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       ds.candidates = ss.candidates;
       ds.overlapping = ss.overlapping;
     } else {
-      impl_->detector.detect(*a.body, *b.body, contacts[p], &ds);
+      // A direction answered by points reads the nodes inside the other object only: its
+      // intruding edges (the segment response's input, the largest part of the narrow
+      // phase) are left out. The response makes the same choice from the same marked
+      // tets, so the forces are the same bits either way.
+      const ResponseObject ra = a.response_view();
+      const ResponseObject rb = b.response_view();
+      const ResponseOptions options = response_options(a, b);
+      impl_->detector.detect(
+          *a.body, *b.body, contacts[p], &ds, [&](const PairContacts& c) -> std::array<bool, 2> {
+            const auto kinds = response_kinds(ra, c.marked_a, rb, c.marked_b, options);
+            return {kinds[0] == ResponseKind::kSegment, kinds[1] == ResponseKind::kSegment};
+          });
     }
     out.stats.broad_ms += ds.broad_ms;
     out.stats.narrow_ms += ds.narrow_ms;
@@ -390,12 +412,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     SceneObject& b = *list[pairs[p].second];
     const ResponseObject ra = a.response_view();
     const ResponseObject rb = b.response_view();
-    ResponseOptions options = pair_options(a.params, b.params);
-    if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
-    if (impl_->config.density_threshold > 0.0)
-      options.auto_threshold = impl_->config.density_threshold;
-    options.record_contacts = impl_->config.record_contacts;
-    options.evaluation = impl_->config.evaluation;
+    const ResponseOptions options = response_options(a, b);
     PairResponse& response = impl_->pair_response;
     const Status st = impl_->accumulator.compute(ra, rb, contacts[p], options, response);
     if (!st) {

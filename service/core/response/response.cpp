@@ -204,6 +204,18 @@ ContactDensity measure_contact_density(const ResponseObject& x, std::span<const 
   return density_of(contact_region(x, marked_x, true), contact_region(y, marked_y, false));
 }
 
+std::array<ResponseKind, 2> response_kinds(const ResponseObject& a, std::span<const Index> marked_a,
+                                           const ResponseObject& b, std::span<const Index> marked_b,
+                                           const ResponseOptions& options) {
+  if (options.kind != ResponseKind::kAuto) return {options.kind, options.kind};
+  // kAuto measures the contact regions; other kinds skip that work.
+  const ContactRegion region_a = contact_region(a, marked_a, true);
+  const ContactRegion region_b = contact_region(b, marked_b, true);
+  return {
+      choose_response_kind(options.kind, density_of(region_a, region_b), options.auto_threshold),
+      choose_response_kind(options.kind, density_of(region_b, region_a), options.auto_threshold)};
+}
+
 ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
                                   double threshold) {
   if (requested != ResponseKind::kAuto) return requested;
@@ -294,17 +306,10 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   if (Status s = validate_marked(contacts.marked_a, a, "marked_a"); !s) return s;
   if (Status s = validate_marked(contacts.marked_b, b, "marked_b"); !s) return s;
 
-  // kAuto measures the contact regions; other kinds skip that work.
-  if (options.kind == ResponseKind::kAuto) {
-    const ContactRegion region_a = contact_region(a, contacts.marked_a, true);
-    const ContactRegion region_b = contact_region(b, contacts.marked_b, true);
-    out.used_a_in_b =
-        choose_response_kind(options.kind, density_of(region_a, region_b), options.auto_threshold);
-    out.used_b_in_a =
-        choose_response_kind(options.kind, density_of(region_b, region_a), options.auto_threshold);
-  } else {
-    out.used_a_in_b = out.used_b_in_a = options.kind;
-  }
+  const std::array<ResponseKind, 2> kinds =
+      response_kinds(a, contacts.marked_a, b, contacts.marked_b, options);
+  out.used_a_in_b = kinds[0];
+  out.used_b_in_a = kinds[1];
   const bool seg_ab = out.used_a_in_b == ResponseKind::kSegment;
   const bool seg_ba = out.used_b_in_a == ResponseKind::kSegment;
   const std::size_t n_a = static_cast<std::size_t>(a.positions->cols());

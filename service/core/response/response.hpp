@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -93,6 +94,15 @@ ContactDensity measure_contact_density(const ResponseObject& x, std::span<const 
 /// relative to the contact, rms_edge > threshold * contact_extent, else kPoint.
 ResponseKind choose_response_kind(ResponseKind requested, const ContactDensity& density,
                                   double threshold);
+
+/// The kinds the response of (A, B) uses: {A's features in B, B's features in A}.
+/// options.kind for both unless it is kAuto; then choose_response_kind() of each
+/// direction's contact density (measured on the marked tets). ResponseAccumulator uses
+/// it; the pipeline asks it before the intrusion scans, so that a direction answered by
+/// points skips its intruding edges.
+std::array<ResponseKind, 2> response_kinds(const ResponseObject& a, std::span<const Index> marked_a,
+                                           const ResponseObject& b, std::span<const Index> marked_b,
+                                           const ResponseOptions& options);
 
 /// Computes and reuses buffers for pair responses. Not thread-safe: one per thread.
 class ResponseAccumulator {
