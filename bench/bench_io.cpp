@@ -184,7 +184,8 @@ void BM_ValidatePositionsMinQuality(benchmark::State& state) {
 /// The per-frame check of the pipeline (tc::ShapeCheck) over a sequence of states of the box.
 /// state.range(0): threads; state.range(1): the motion between frames (0 still, 1 every
 /// node jittered by 1e-6 of the box, 2 a dent of ~1% of the nodes pressed in and out,
-/// 3 the whole box turned by 0.01 rad a frame).
+/// 3 the whole box turned by 0.01 rad a frame); state.range(2): 1 = the baseline,
+/// validate_positions() of every tet on the same states.
 void BM_ShapeCheck(benchmark::State& state) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
                               static_cast<std::size_t>(state.range(0)));
@@ -224,11 +225,14 @@ void BM_ShapeCheck(benchmark::State& state) {
       states.push_back(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
                        rest);
   (void)check.check(rest);  // the first state: the reference
+  const bool full = state.range(2) != 0;
   std::size_t frame = 0, checked = 0;
   for (auto _ : state) {
-    const tc::ValidationReport r = check.check(states[frame++ % states.size()]);
+    const tc::Positions& x = states[frame++ % states.size()];
+    const tc::ValidationReport r =
+        full ? tc::validate_positions(x, order, options) : check.check(x);
     if (!r.clean()) state.SkipWithError("the box is not clean");
-    checked += check.last().checked_tets;
+    checked += full ? order.tets.size() : check.last().checked_tets;
     benchmark::DoNotOptimize(r);
   }
   state.counters["tets"] = static_cast<double>(mesh.num_tets());
@@ -268,8 +272,8 @@ BENCHMARK(BM_ValidatePositionsShuffledMorton)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ShapeCheck)
-    ->ArgsProduct({{1, 2}, {0, 1, 2, 3}})
-    ->ArgNames({"threads", "motion"})
+    ->ArgsProduct({{1, 2}, {0, 1, 2, 3}, {0, 1}})
+    ->ArgNames({"threads", "motion", "full"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ValidatePositionsMinQuality)

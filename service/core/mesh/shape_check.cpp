@@ -21,6 +21,11 @@ constexpr std::size_t kRadiusChunk = 4096;
 /// Tets per call of detail::motion_radii().
 constexpr std::size_t kRadiusLanes = 8;
 
+/// Objects with more nodes take their shift and first look for a busy state from every
+/// kSampleStride-th node.
+constexpr std::size_t kSampleAbove = 8192;
+constexpr std::size_t kSampleStride = 16;
+
 /// More than one node in this many moved: check every tet (a rotation, a large step).
 constexpr std::size_t kBusyFraction = 4;
 
@@ -189,30 +194,44 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   last_ = {};
   if (reference_.cols() == 0) return check_all(positions, true);
 
-  // The mean displacement from the reference: a translation changes no tet's shape.
+  // A translation changes no tet's shape: the displacements are compared after removing
+  // one shift, the mean displacement of the nodes (of every 16th on a large object: any
+  // common shift is as sound).
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const std::size_t stride = n > kSampleAbove ? kSampleStride : 1;
   const double* x = positions.data();
   const double* r = reference_.data();
   double shift[3] = {0.0, 0.0, 0.0};
-  for (std::size_t i = 0; i < n; ++i)
+  std::size_t samples = 0;
+  for (std::size_t i = 0; i < n; i += stride, ++samples)
     for (int c = 0; c < 3; ++c) shift[c] += x[3 * i + c] - r[3 * i + c];
-  for (double& s : shift) s /= static_cast<double>(n);
-  // A NaN or an infinite coordinate makes the sum non-finite: the full check names it.
+  for (double& s : shift) s /= static_cast<double>(std::max<std::size_t>(samples, 1));
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
-    return check_all(positions, false);
-
-  moved_.clear();
-  for (std::size_t i = 0; i < n; ++i) {
+    return check_all(positions, false);  // a NaN or infinite coordinate: the full report
+  const auto beyond = [&](std::size_t i) {
     const double dx = x[3 * i] - r[3 * i] - shift[0];
     const double dy = x[3 * i + 1] - r[3 * i + 1] - shift[1];
     const double dz = x[3 * i + 2] - r[3 * i + 2] - shift[2];
-    if (!(dx * dx + dy * dy + dz * dz <= radius2_[i])) moved_.push_back(static_cast<Index>(i));
-  }
-  last_.moved_nodes = moved_.size();
-  if (kBusyFraction * moved_.size() > n) {
+    return !(dx * dx + dy * dy + dz * dz <= radius2_[i]);  // NaN: beyond
+  };
+  const auto busy = [&] {
     ++busy_streak_;
     return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
+  };
+  if (stride > 1) {  // a rotation shows in the sample: no need to look at every node
+    std::size_t moved = 0;
+    for (std::size_t i = 0; i < n; i += stride) moved += beyond(i) ? 1 : 0;
+    if (kBusyFraction * moved > samples) return busy();
   }
+  moved_.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (beyond(i)) moved_.push_back(static_cast<Index>(i));
+  last_.moved_nodes = moved_.size();
+  if (kBusyFraction * moved_.size() > n) return busy();
+  // Every node that is not finite is beyond its radius (orphans' radius is the largest
+  // finite number): the full check reports those.
+  for (const Index i : moved_)
+    if (!positions.col(i).allFinite()) return check_all(positions, false);
   busy_streak_ = 0;
 
   // The tets of the nodes that moved, in check order.

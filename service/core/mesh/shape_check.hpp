@@ -28,18 +28,20 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
 /// A reference shape is kept (the last accepted positions of each node, up to one
 /// translation of the whole object) with, per node, a radius r_i = min over its tets of
 /// certified_motion_radius() at the reference (the sliver threshold as the quality). A
-/// new state is compared with the reference after removing the mean displacement (a
-/// translation changes no shape): a tet whose four nodes all stayed within their radii
+/// new state is compared with the reference after removing the mean displacement (of
+/// every 16th node on objects of over 8,192 nodes; a translation changes no shape): a
+/// tet whose four nodes all stayed within their radii
 /// is surely neither degenerate, inverted nor a sliver, and only the tets of the nodes
 /// that moved further are checked. When the state is clean, those nodes become part of
 /// the reference and the radii around them are recomputed. A still or rigidly moving
-/// object costs two reads of its positions a frame; the tets near a contact cost what
-/// they cost before plus their new radii.
+/// object costs about one read of its positions (and of the reference) a frame; the tets
+/// near a contact cost what they cost before plus their new radii.
 ///
-/// When more than a quarter of the nodes moved (a rotation, a large deformation) every
-/// tet is checked as by validate_positions(), and the reference is rebuilt on the 1st,
-/// 2nd, 4th, 8th, ... such state in a row (its radii cost a few full checks, so an object
-/// that keeps moving pays for them less and less often).
+/// When more than a quarter of the nodes moved (a rotation, a large deformation; on a
+/// large object a quarter of the sampled nodes already tells) every tet is checked as by
+/// validate_positions(), and the reference is rebuilt on the 1st, 2nd, 4th, 8th, ... such
+/// state in a row (the radii cost about a full check, so an object that keeps moving pays
+/// for them less and less often).
 ///
 /// The reports are those of validate_positions(positions, order, options) field for field
 /// (min_quality only when options.compute_min_quality is false: NaN, as there), whatever
@@ -49,7 +51,8 @@ class ShapeCheck {
  public:
   /// What the last check() did.
   struct Stats {
-    std::size_t moved_nodes = 0;   ///< nodes beyond their radius (0 on a full check)
+    std::size_t moved_nodes = 0;   ///< nodes beyond their radius (0 when not counted: the
+                                   ///< first state, a NaN, or a busy state seen in a sample)
     std::size_t checked_tets = 0;  ///< tets whose shape was computed
     bool full = false;             ///< every tet was checked
     bool rebuilt = false;          ///< the reference was rebuilt from this state
