@@ -37,6 +37,10 @@ TetMesh single_tet() {
   return from_points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{0, 1, 2, 3}});
 }
 
+TetMesh regular_tet() {
+  return from_points({{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}}, {{1, 0, 2, 3}});
+}
+
 TetMesh two_tets_sharing_face() {
   return from_points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}},
                      {{0, 1, 2, 3}, {4, 1, 3, 2}});

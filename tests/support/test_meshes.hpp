@@ -13,6 +13,9 @@ namespace tc::test {
 /// The unit tet (0,0,0), (1,0,0), (0,1,0), (0,0,1), positively oriented.
 TetMesh single_tet();
 
+/// The regular tet on alternate corners of [-1, 1]^3 (edge 2 sqrt(2)), positively oriented.
+TetMesh regular_tet();
+
 /// Two tets sharing the face (1,2,3).
 TetMesh two_tets_sharing_face();
 

@@ -72,13 +72,8 @@ Eigen::Vector3d random_unit(std::mt19937_64& rng) {
 }
 
 TEST(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
-  TetMesh m = test::single_tet();
-  m.positions.col(0) << 1, 1, 1;
-  m.positions.col(1) << 1, -1, -1;
-  m.positions.col(2) << -1, 1, -1;
-  m.positions.col(3) << -1, -1, 1;
-  Tet t = m.tets[0];
-  if (signed_volume(m.positions, t) < 0) std::swap(t[0], t[1]);
+  const TetMesh m = test::regular_tet();
+  const Tet t = m.tets[0];
   const double edge = std::sqrt(8.0);
   const double r = certified_motion_radius(m.positions, t, 0.01);
   EXPECT_GT(r, 0.05 * edge);  // useful: a good tet is not rechecked for small motions
