@@ -309,6 +309,22 @@ TEST(AutoRule, ResponseKindsAreTheKindsTheResponseUses) {
   }
 }
 
+TEST(AutoRule, DecidedKindsAreUsedAsGivenAndChecked) {
+  // The pipeline hands the response the kinds it decided before detection's edge scans:
+  // the response takes them without measuring again, and refuses kAuto among them.
+  const BoxPair pair = box_pair(0.05, 0.21, 2);
+  const PairContacts c = test::brute_force_contacts(pair.a, pair.b);
+  ResponseOptions o;  // kAuto, not read
+  o.decided_kinds = std::array<ResponseKind, 2>{ResponseKind::kSegment, ResponseKind::kPoint};
+  const PairResponse r = respond(pair.a, pair.b, c, o);
+  EXPECT_EQ(r.used_a_in_b, ResponseKind::kSegment);
+  EXPECT_EQ(r.used_b_in_a, ResponseKind::kPoint);
+  o.decided_kinds = std::array<ResponseKind, 2>{ResponseKind::kPoint, ResponseKind::kAuto};
+  const auto bad = compute_pair_response(pair.a.view(), pair.b.view(), c, o);
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("decided_kinds"), std::string::npos) << bad.error().message;
+}
+
 // ---- Deep penetration ----------------------------------------------------------------
 
 TEST(DeepPenetration, ABoxWhollyInsideIsPushedTowardTheNearestFace) {

@@ -4,6 +4,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -325,6 +326,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   // 3. Detection per pair (the detector's inner loops run on TBB).
   auto& contacts = impl_->contacts;
   if (contacts.size() < pairs.size()) contacts.resize(pairs.size());
+  std::vector<std::optional<std::array<ResponseKind, 2>>> decided(pairs.size());
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     DetectStats ds;
     SceneObject& a = *list[pairs[p].first];
@@ -348,12 +350,14 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       // intruding edges (the segment response's input, the largest part of the narrow
       // phase) are left out. The response makes the same choice from the same marked
       // tets, so the forces are the same bits either way.
+      // The choice is kept for the response stage, which does not measure again.
       const ResponseObject ra = a.response_view();
       const ResponseObject rb = b.response_view();
       const ResponseOptions options = response_options(a, b);
       impl_->detector.detect(
           *a.body, *b.body, contacts[p], &ds, [&](const PairContacts& c) -> std::array<bool, 2> {
             const auto kinds = response_kinds(ra, c.marked_a, rb, c.marked_b, options);
+            decided[p] = kinds;
             return {kinds[0] == ResponseKind::kSegment, kinds[1] == ResponseKind::kSegment};
           });
     }
@@ -412,7 +416,8 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     SceneObject& b = *list[pairs[p].second];
     const ResponseObject ra = a.response_view();
     const ResponseObject rb = b.response_view();
-    const ResponseOptions options = response_options(a, b);
+    ResponseOptions options = response_options(a, b);
+    options.decided_kinds = decided[p];
     PairResponse& response = impl_->pair_response;
     const Status st = impl_->accumulator.compute(ra, rb, contacts[p], options, response);
     if (!st) {

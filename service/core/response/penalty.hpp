@@ -76,8 +76,12 @@ enum class DepthEvaluation : std::uint8_t {
 /// Settings of the response of one object pair.
 struct ResponseOptions {
   ResponseKind kind = ResponseKind::kAuto;  ///< point, segment, or by mesh density
-  double stiffness = 1e4;                   ///< k >= 0; units per `measure`
-  double damping = 0.0;                     ///< c >= 0 on the penetration rate; units per `measure`
+  /// Set: the kinds {A's features in B, B's features in A} already decided by
+  /// response_kinds() on the same contacts (the pipeline decides before detection's edge
+  /// scans); `kind` is then not read. Each must be kPoint or kSegment.
+  std::optional<std::array<ResponseKind, 2>> decided_kinds;
+  double stiffness = 1e4;  ///< k >= 0; units per `measure`
+  double damping = 0.0;    ///< c >= 0 on the penetration rate; units per `measure`
   ForceMeasure measure = ForceMeasure::kEdgeLength;
   StiffnessMode stiffness_mode = StiffnessMode::kNone;
   /// The paper's behaviour: push the intruding node(s) only, no reaction on the

@@ -65,6 +65,10 @@ Status validate_options(const ResponseOptions& o) {
   if (bad(o.stiffness)) return invalid("response: stiffness must be finite and >= 0");
   if (bad(o.damping)) return invalid("response: damping must be finite and >= 0");
   if (bad(o.auto_threshold)) return invalid("response: auto_threshold must be finite and >= 0");
+  if (o.decided_kinds)
+    for (const ResponseKind k : *o.decided_kinds)
+      if (k != ResponseKind::kPoint && k != ResponseKind::kSegment)
+        return invalid("response: decided_kinds must be point or segment");
   if (bad(o.min_gradient) || !(o.max_gradient > o.min_gradient) || std::isnan(o.max_gradient))
     return invalid("response: need 0 <= min_gradient < max_gradient");
   return {};
@@ -307,7 +311,8 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   if (Status s = validate_marked(contacts.marked_b, b, "marked_b"); !s) return s;
 
   const std::array<ResponseKind, 2> kinds =
-      response_kinds(a, contacts.marked_a, b, contacts.marked_b, options);
+      options.decided_kinds ? *options.decided_kinds
+                            : response_kinds(a, contacts.marked_a, b, contacts.marked_b, options);
   out.used_a_in_b = kinds[0];
   out.used_b_in_a = kinds[1];
   const bool seg_ab = out.used_a_in_b == ResponseKind::kSegment;
