@@ -2,6 +2,7 @@
 #include "core/detect/broad_phase.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Dense>
 #include <random>
@@ -312,6 +313,49 @@ TEST(AabbTree, RefitAfterDeformationQueriesLikeBruteForce) {
       for (std::size_t t = 0; t < b.boxes.size(); ++t)
         if (b.boxes[t].overlaps(box)) want.push_back(static_cast<Index>(t));
       EXPECT_EQ(got, want) << "frame " << frame << " query " << q;
+    }
+  }
+}
+
+TEST(AabbTree, EverySizeBuildsTheSameTreeWithAnyThreadCount) {
+  // build() places each subtree by its size and builds large halves concurrently: for
+  // every size (leaf splits, the fork threshold around 512) the query answers are brute
+  // force's and come in the same tree order with 1 and 4 threads.
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<std::size_t> sizes;
+  for (std::size_t n = 0; n <= 40; ++n) sizes.push_back(n);
+  for (const std::size_t n : {511, 512, 513, 1023, 1024, 1025, 3001}) sizes.push_back(n);
+  for (const std::size_t n : sizes) {
+    std::vector<Aabb> boxes(n);
+    for (Aabb& b : boxes) {
+      const Vector3d c(u(rng), u(rng), u(rng));
+      b = Aabb{c.array() - 0.03 * u(rng), c.array() + 0.03 * u(rng)};
+    }
+    const auto answers = [&](std::size_t threads) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      AabbTree tree;
+      tree.build(boxes);
+      std::vector<std::vector<Index>> out;
+      std::mt19937 qrng(5);
+      for (int q = 0; q < 20; ++q) {
+        const Vector3d c(u(qrng), u(qrng), u(qrng));
+        out.emplace_back();
+        tree.query(Aabb{c.array() - 0.1, c.array() + 0.1}, boxes, out.back());
+      }
+      return out;
+    };
+    const auto one = answers(1), four = answers(4);
+    ASSERT_EQ(one, four) << n << " boxes";
+    std::mt19937 qrng(5);
+    for (int q = 0; q < 20; ++q) {
+      const Vector3d c(u(qrng), u(qrng), u(qrng));
+      const Aabb box{c.array() - 0.1, c.array() + 0.1};
+      std::vector<Index> got = one[static_cast<std::size_t>(q)], want;
+      std::sort(got.begin(), got.end());
+      for (std::size_t t = 0; t < n; ++t)
+        if (boxes[t].overlaps(box)) want.push_back(static_cast<Index>(t));
+      EXPECT_EQ(got, want) << n << " boxes, query " << q;
     }
   }
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <utility>
 
 #include "core/common/chunked.hpp"
 #include "core/mesh/geometry.hpp"
@@ -180,6 +181,26 @@ void TetBounds::compute(const Positions& positions, std::span<const Tet> tets,
 
 // ---------------------------------------------------------------------------- AabbTree
 
+namespace {
+
+/// Items from which AabbTree::build forks its two halves.
+constexpr std::size_t kBuildParallelItems = 512;
+
+/// {nodes of a tree over n items, nodes over n + 1}: AabbTree::build splits at the
+/// median down to leaves of at most 4 items. O(log n).
+std::pair<Index, Index> tree_node_counts(std::size_t n) {
+  if (n <= 3) return {1, 1};
+  if (n == 4) return {1, 3};
+  const auto [p, q] = tree_node_counts(n / 2);
+  return n % 2 == 0 ? std::pair{1 + 2 * p, 1 + p + q} : std::pair{1 + p + q, 1 + 2 * q};
+}
+
+}  // namespace
+
+Index AabbTree::nodes_for(std::size_t items) {
+  return tree_node_counts(items).first;
+}
+
 void AabbTree::build(std::span<const Aabb> boxes) {
   nodes_.clear();
   items_.resize(boxes.size());
@@ -190,18 +211,20 @@ void AabbTree::build(std::span<const Aabb> boxes) {
     const Vector3d c = 0.5 * (boxes[i].lo + boxes[i].hi);
     centers[i] = c.allFinite() ? c : Vector3d::Zero();
   }
-  nodes_.reserve(boxes.size());
-  build_node(items_, centers, 0);
+  // Every subtree's size, and so its place in the pre-order, is known before it is
+  // built: the two halves of a large node are built at once, into the same nodes the
+  // serial recursion fills.
+  nodes_.assign(static_cast<std::size_t>(nodes_for(boxes.size())), Node{});
+  build_node(items_, centers, 0, 0);
   refit(boxes);
 }
 
-Index AabbTree::build_node(std::span<Index> items, std::span<const Vector3d> centers, Index first) {
-  const Index node = static_cast<Index>(nodes_.size());
-  nodes_.emplace_back();
+void AabbTree::build_node(std::span<Index> items, std::span<const Vector3d> centers, Index first,
+                          Index node) {
   if (items.size() <= 4) {
     nodes_[node].first = first;
     nodes_[node].count = static_cast<Index>(items.size());
-    return node;
+    return;
   }
   Aabb cb;
   for (const Index i : items) cb.extend(centers[i]);
@@ -215,10 +238,18 @@ Index AabbTree::build_node(std::span<Index> items, std::span<const Vector3d> cen
                      const double cx = centers[x][axis], cy = centers[y][axis];
                      return cx < cy || (cx == cy && x < y);
                    });
-  build_node(items.first(mid), centers, first);
-  const Index right = build_node(items.subspan(mid), centers, first + static_cast<Index>(mid));
+  const Index right = node + 1 + nodes_for(mid);
   nodes_[node].right = right;
-  return node;
+  const auto left_half = [&] { build_node(items.first(mid), centers, first, node + 1); };
+  const auto right_half = [&] {
+    build_node(items.subspan(mid), centers, first + static_cast<Index>(mid), right);
+  };
+  if (items.size() >= kBuildParallelItems) {
+    tbb::parallel_invoke(left_half, right_half);
+  } else {
+    left_half();
+    right_half();
+  }
 }
 
 void AabbTree::refit(std::span<const Aabb> boxes) {

@@ -109,7 +109,10 @@ class AabbTree {
     Index count = 0;   ///< leaf: item count (> 0); inner: 0
     Index right = -1;  ///< inner: right child (the left child is the next node)
   };
-  Index build_node(std::span<Index> items, std::span<const Eigen::Vector3d> centers, Index first);
+  /// Nodes of a tree over `items` items.
+  static Index nodes_for(std::size_t items);
+  void build_node(std::span<Index> items, std::span<const Eigen::Vector3d> centers, Index first,
+                  Index node);
   void refit_node(Index node, std::span<const Aabb> boxes, int depth);
 
   std::vector<Node> nodes_;   ///< pre-order
