@@ -108,7 +108,7 @@ struct ResponseOptions {
   double max_gradient = 10.0;
   /// Point or segment contacts per direction above which the per-contact work runs in
   /// parallel (TBB); the forces are summed in contact order either way.
-  std::size_t parallel_threshold = 4096;
+  std::size_t parallel_threshold = 64;
 };
 
 /// Read-only view of one object in a pair. Every pointer must outlive the call.

@@ -432,7 +432,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     const Vec3 none = sign * forced;
     if (list.size() >= std::max<std::size_t>(options.parallel_threshold, 1)) {
       results_.resize(list.size());
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 64),
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 16),
                         [&](const tbb::blocked_range<std::size_t>& range) {
                           for (std::size_t i = range.begin(); i != range.end(); ++i)
                             results_[i] = kernel(list[i], none);
