@@ -527,6 +527,7 @@ TEST(Detector, ReusedAcrossFramesMatchesOneOffs) {
     Detector detector(opt);
     ba.set_positions(a.mesh.positions);
     for (int frame = 0; frame < 6; ++frame) {
+      if (frame > 0) ba.reuse_positions();  // A at rest
       // B slides in and twists: the tree built on frame 0 is only refitted.
       const Eigen::Matrix3d r =
           Eigen::AngleAxisd(0.3 * frame, Vector3d(0.2, 0.5, 1).normalized()).toRotationMatrix();
@@ -569,6 +570,8 @@ TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
       body_large.set_positions(large.mesh.positions);
       for (int frame = 0; frame < 4; ++frame) {
         SCOPED_TRACE(frame);
+        // The large object is at rest: its box, cluster boxes, bounds and tree are kept.
+        if (frame > 0) body_large.reuse_positions();
         // Pressed 2 cm into the top face, sliding across it.
         const Object tool(moved(tool0, Matrix3d::Identity(),
                                 Vector3d(0.3 + 0.1 * frame, 0.45, 0.3 + 0.06 - 0.02)));
@@ -625,6 +628,7 @@ TEST(CollisionBody, RejectsMismatchedInput) {
   CollisionBody body(m.tets, t);
   EXPECT_THROW(body.set_positions(Positions::Zero(3, 3)), std::invalid_argument);
   EXPECT_THROW(body.prepare(BroadPhaseKind::kGrid), std::logic_error);
+  EXPECT_THROW(body.reuse_positions(), std::logic_error);
   body.set_positions(m.positions);
   EXPECT_EQ(body.box().lo, Vector3d::Zero());
   EXPECT_EQ(body.box().hi, Vector3d::Ones());

@@ -349,6 +349,49 @@ TEST(Pipeline, StaticObjectsReuseTheirDepthMap) {
     EXPECT_EQ(first.forces[o].forces, second.forces[o].forces);
 }
 
+TEST(Pipeline, ObjectsAtRestGiveWhatFreshStatesGive) {
+  // A static floor (never sent a state) and a block that sends one state and then none
+  // keep their detection bounds and trees across frames (CollisionBody::reuse_positions);
+  // a ball moves through both. Every frame's forces are those of a new pipeline given
+  // every object's current positions.
+  ObjectParams fixed;
+  fixed.is_static = true;
+  const TetMesh floor = box_at(0.0, 5);
+  const TetMesh block = test::structured_box(3, 3, 3, {0.1, 0.1, 0.95}, {0.6, 0.6, 1.4});
+  const TetMesh ball0 = test::ball_mesh(3, 0.15);
+  const auto ball_at = [&](int frame) {
+    TetMesh ball = ball0;
+    ball.positions.colwise() += Eigen::Vector3d(0.4 + 0.05 * frame, 0.5, 1.05 - 0.01 * frame);
+    return ball;
+  };
+  Pipeline kept;
+  ASSERT_TRUE(kept.set_topology("floor", 0, floor, fixed).ok());
+  ASSERT_TRUE(kept.set_topology("block", 0, block, {}).ok());
+  ASSERT_TRUE(kept.set_topology("ball", 0, ball0, {}).ok());
+  for (int frame = 0; frame < 5; ++frame) {
+    SCOPED_TRACE(frame);
+    const TetMesh ball = ball_at(frame);
+    std::vector<FrameObjectInput> states = {state_of("ball", ball)};
+    if (frame == 0) states.push_back(state_of("block", block));
+    const FrameOutput got = kept.run_frame(frame, states);
+    Pipeline fresh;
+    ASSERT_TRUE(fresh.set_topology("floor", 0, floor, fixed).ok());
+    ASSERT_TRUE(fresh.set_topology("block", 0, block, {}).ok());
+    ASSERT_TRUE(fresh.set_topology("ball", 0, ball0, {}).ok());
+    const FrameOutput want = fresh.run_frame(
+        frame, std::vector<FrameObjectInput>{state_of("ball", ball), state_of("block", block)});
+    EXPECT_TRUE(got.errors.empty());
+    EXPECT_GT(got.stats.overlapping_pairs, 0u);
+    EXPECT_EQ(got.stats.candidate_pairs, want.stats.candidate_pairs);
+    ASSERT_EQ(got.forces.size(), want.forces.size());
+    for (std::size_t o = 0; o < got.forces.size(); ++o) {
+      EXPECT_EQ(got.forces[o].object, want.forces[o].object);
+      EXPECT_EQ(got.forces[o].nodes, want.forces[o].nodes);
+      EXPECT_EQ(got.forces[o].forces, want.forces[o].forces);
+    }
+  }
+}
+
 TEST(Pipeline, UnknownObjectsCanBeRemoved) {
   Pipeline pipeline;
   ASSERT_TRUE(pipeline.set_topology("a", 0, box_at(0.0), {}).ok());

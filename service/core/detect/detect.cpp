@@ -27,7 +27,7 @@ double ms_since(Clock::time_point start) {
 
 constexpr std::size_t kNarrowChunk = 256;
 constexpr std::size_t kFeatureChunk = 128;
-constexpr std::size_t kFilterChunk = 4096;
+constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
 
 template <typename T>
@@ -201,6 +201,12 @@ void CollisionBody::set_positions(const Positions& positions) {
   if (cluster_tets_.offsets.empty()) build_clusters(positions);
 }
 
+void CollisionBody::reuse_positions() {
+  if (positions_ == nullptr)
+    throw std::logic_error("CollisionBody::reuse_positions: set_positions() was not called");
+  // Nothing to reset: the frame stamp, the ready flags and what they cover still hold.
+}
+
 void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
   if (positions_ == nullptr)
     throw std::logic_error("CollisionBody::tets_near: set_positions() was not called");
@@ -283,6 +289,13 @@ void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
       g.boxes[i] = {g.geom[i].lo, g.geom[i].hi, g.geom[i].scale};
     }
   });
+  g.reach = TetBox{Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()),
+                   Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity()), 0.0};
+  for (const TetBox& b : g.boxes) {
+    g.reach.lo = g.reach.lo.cwiseMin(b.lo);
+    g.reach.hi = g.reach.hi.cwiseMax(b.hi);
+    g.reach.scale = std::max(g.reach.scale, b.scale);
+  }
 }
 
 void Detector::clear_slots(Geometry& g) {
@@ -509,31 +522,58 @@ void Detector::collect_features(std::span<const Index> marked, const CollisionBo
   set.drain(features_);
 }
 
+namespace {
+
+/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
+/// through another tet of X around the same node or edge is skipped. Only used for dedup, so
+/// the output does not depend on which thread ran what.
+struct VisitMarks {
+  std::vector<std::uint64_t> mark;
+  std::uint64_t now = 0;
+};
+thread_local VisitMarks t_marks;
+
+}  // namespace
+
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
                                std::vector<IntrudingNode>& out) {
   collect_features(marked, x, false);
   const Positions& px = *x.positions_;
   const double rel = relative_tolerance();
+  // The tests below accept p only inside a tet's box padded by rel * its scale, which
+  // lies inside this one (IEEE rounding is monotonic): a node outside it (most nodes of
+  // the marked tets, on the far side of the contact) skips its rows.
+  const double reach_tol = rel * gy.reach.scale;
+  const Eigen::Array3d reach_lo = gy.reach.lo.array() - reach_tol;
+  const Eigen::Array3d reach_hi = gy.reach.hi.array() + reach_tol;
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(node_parts_, chunks);
   detail::for_chunks(features_.size(), kFeatureChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t c) {
+                       VisitMarks& marks = t_marks;
+                       if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
                        for (std::size_t i = begin; i < end; ++i) {
                          const Index node = features_[i];
                          const Eigen::Vector3d p = px.col(node);
+                         if (!((p.array() >= reach_lo).all() && (p.array() <= reach_hi).all()))
+                           continue;
                          // The first tet of Y (in tet order) containing the node, among the tets
-                         // overlapped by the marked tets around it. Rows repeat tets; no need to
-                         // sort them: a tet not before the best found so far is skipped.
+                         // overlapped by the marked tets around it. Rows repeat tets: a tet
+                         // already tested for this node (it did not contain it) or not before the
+                         // best found so far is skipped, so no need to sort them.
                          // Slots follow tet order: the smallest slot is the first tet.
                          Index best = std::numeric_limits<Index>::max();
                          Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+                         const std::uint64_t now = ++marks.now;
                          for (const Index t : x.node_tets_.row(node)) {
                            const Index r = row_of_[t];
                            if (r < 0) continue;
                            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
                              const Index slot = rows.items[k];
                              if (slot >= best) break;  // rows are sorted
+                             if (marks.mark[slot] == now) continue;
+                             marks.mark[slot] = now;
                              const TetBox& box = gy.boxes[slot];
                              const double tol = rel * box.scale;
                              if (!((p.array() >= box.lo.array() - tol).all() &&
@@ -553,19 +593,6 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
                      });
   detail::concat_parts(node_parts_, chunks, out);
 }
-
-namespace {
-
-/// Per-thread visit marks over the candidate tets of Y (by slot): a tet reached again
-/// through another tet of X around the same edge is skipped. Only used for dedup, so
-/// the output does not depend on which thread ran what.
-struct VisitMarks {
-  std::vector<std::uint64_t> mark;
-  std::uint64_t now = 0;
-};
-thread_local VisitMarks t_marks;
-
-}  // namespace
 
 void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
                                const Rows& rows, const CollisionBody&, const Geometry& gy,
@@ -587,6 +614,13 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
           const Eigen::Vector3d p1 = px.col(x.edges_[edge][1]);
           const Eigen::Vector3d lo = p0.cwiseMin(p1), hi = p0.cwiseMax(p1);
           const double length = (p1 - p0).norm();
+          {
+            // As for the nodes: every box test below passes only inside this one.
+            const double tol = rel * std::max(gy.reach.scale, length);
+            if (!((lo.array() <= gy.reach.hi.array() + tol).all() &&
+                  (hi.array() >= gy.reach.lo.array() - tol).all()))
+              continue;
+          }
           const std::uint64_t now = ++marks.now;
           hits.clear();
           // Every tet of Y overlapped by a marked tet of X around the edge, once.

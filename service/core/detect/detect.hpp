@@ -78,6 +78,14 @@ class CollisionBody {
   /// @throws std::invalid_argument when positions.cols() != n
   void set_positions(const Positions& positions);
 
+  /// Starts a new frame with the last frame's positions: the same matrix, unchanged
+  /// since set_positions() (a static object, or one without a new state). The box,
+  /// cluster boxes, tet bounds and tree made for them stay valid and are not made again,
+  /// so an object at rest costs nothing here. detect() gives what set_positions() with
+  /// the same positions would give.
+  /// @throws std::logic_error before the first set_positions()
+  void reuse_positions();
+
   /// Computes this frame's tet bounds (and builds or refits the AABB tree for kBvh),
   /// once per frame; later calls return at once. detect() calls it when needed; call it
   /// yourself before running detect() on several pairs sharing this body concurrently.
@@ -178,7 +186,10 @@ class Detector {
     std::vector<Index> tets;        ///< sorted
     std::vector<TetGeometry> geom;  ///< one per entry of tets
     std::vector<TetBox> boxes;      ///< geom[i].lo, .hi, .scale
-    std::vector<Index> slot;        ///< scratch, per tet of the body: index or -1
+    /// The union of `boxes` and their largest scale: no point or segment outside it,
+    /// padded by the tolerance, can be in any of these tets.
+    TetBox reach;
+    std::vector<Index> slot;  ///< scratch, per tet of the body: index or -1
   };
   void build_geometry(const CollisionBody& body, Geometry& g);
   static void clear_slots(Geometry& g);

@@ -67,6 +67,9 @@ struct SceneObject {
   /// A state of this version was applied: until then a moving object's positions are its
   /// rest positions, which are not a state, and it takes no part in contact.
   bool has_state = false;
+  /// `positions` changed since the body last read them (a state was applied, or the
+  /// object is new): else the body keeps its bounds and trees (CollisionBody::reuse_positions).
+  bool moved = true;
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
@@ -284,6 +287,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     obj.positions = state.positions;
     obj.velocities = state.velocities;
     obj.has_state = true;
+    obj.moved = true;
   }
 
   // 2. Broad phase over objects: boxes, then the pairs that touch and are enabled.
@@ -295,7 +299,13 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       out.left_out.push_back(name);  // no state of its version yet: no pair with it
       continue;
     }
-    if (obj->body) obj->body->set_positions(obj->positions);
+    if (obj->body) {
+      if (obj->moved)
+        obj->body->set_positions(obj->positions);
+      else
+        obj->body->reuse_positions();  // at rest: its bounds and trees still hold
+      obj->moved = false;
+    }
     obj->marked.clear();
     obj->involved = false;
     list.push_back(obj.get());
