@@ -593,6 +593,39 @@ TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
   }
 }
 
+// A tool creeping across a large object (1 kHz motion): the tree over the large object's
+// few tets near the contact is refitted while those tets stay the same, and rebuilt when
+// they change or after 32 refits; the contacts are every frame those of a one-off.
+TEST(Detector, ARefittedLocalTreeGivesTheOneOffContacts) {
+  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  const Object tool_rest(tool0);
+  CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
+  CollisionBody body_large(large.mesh.tets, large.topo);
+  Detector detector;
+  body_large.set_positions(large.mesh.positions);
+  int refitted = 0, built = 0;
+  for (int frame = 0; frame < 80; ++frame) {
+    SCOPED_TRACE(frame);
+    if (frame > 0) body_large.reuse_positions();
+    // Pressed 2 cm into the top face and 0.1 mm deeper and further along x every frame
+    // (the large object's tets near the tool change rarely, their clipped boxes every
+    // frame); every 10th frame a jump.
+    const double x = 0.4 + 1e-4 * frame + (frame % 10 == 9 ? 0.05 : 0.0);
+    const double z = 0.25 + 0.06 - 0.02 - 1e-4 * frame;
+    const Object tool(moved(tool0, Matrix3d::Identity(), Vector3d(x, 0.45, z)));
+    body_tool.set_positions(tool.mesh.positions);
+    PairContacts got;
+    DetectStats st;
+    detector.detect(body_tool, body_large, got, &st);
+    EXPECT_FALSE(got.overlapping.empty());
+    expect_identical(got, run(tool, large));
+    (st.local_tree_refitted ? refitted : built) += 1;
+  }
+  EXPECT_GT(refitted, 20);
+  EXPECT_GT(built, 8);
+}
+
 TEST(Detect, NonFiniteNodesAreIgnored) {
   const Object a(test::structured_box(3, 3, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
   Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.5, 0.5), Vector3d(1.5, 1.5, 1.5)));

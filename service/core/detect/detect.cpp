@@ -29,6 +29,8 @@ constexpr std::size_t kNarrowChunk = 256;
 constexpr std::size_t kFeatureChunk = 128;
 constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
+/// Frames a local tree over the same tets is refitted before it is built again.
+constexpr int kLocalTreeRefits = 32;
 
 template <typename T>
 void sort_values(std::vector<T>& v) {
@@ -400,7 +402,20 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
       box_slot_[subset_b_[k]] = static_cast<Index>(k);
     bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
   } else if (local_tree) {
-    local_tree_.build(boxes_b_);
+    // Any tree over these boxes answers the same (a refit makes every node box exact);
+    // only its shape, and so the query cost, depends on where the boxes were when it
+    // was built: rebuilt when the tets change, and every kLocalTreeRefits frames.
+    if (local_tree_body_ == &b && local_tree_refits_ < kLocalTreeRefits &&
+        local_tree_tets_ == subset_b_) {
+      local_tree_.refit(boxes_b_);
+      ++local_tree_refits_;
+      st.local_tree_refitted = true;
+    } else {
+      local_tree_.build(boxes_b_);
+      local_tree_body_ = &b;
+      local_tree_tets_ = subset_b_;
+      local_tree_refits_ = 0;
+    }
     bvh.tree = &local_tree_;
     bvh.tet_boxes = boxes_b_;
     bvh.over_side = true;

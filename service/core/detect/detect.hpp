@@ -54,9 +54,12 @@ struct DetectStats {
   std::size_t tets_a_near = 0;    ///< tets of A whose bounds were looked at (clusters)
   std::size_t tets_b_near = 0;    ///< same for B
   std::size_t candidates = 0;     ///< tet pairs out of the broad phase
-  std::size_t overlapping = 0;    ///< tet pairs out of the narrow phase
-  double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
-  double narrow_ms = 0.0;         ///< exact overlap tests, marked tets, intrusions
+  /// kBvh over B's few tets near the contact: the last call's tree over the same tets
+  /// was refitted rather than built again.
+  bool local_tree_refitted = false;
+  std::size_t overlapping = 0;  ///< tet pairs out of the narrow phase
+  double broad_ms = 0.0;        ///< object boxes, tet bounds, tree refit, broad phase
+  double narrow_ms = 0.0;       ///< exact overlap tests, marked tets, intrusions
   double total_ms = 0.0;
   // Finer split, included in the above.
   double bounds_ms = 0.0;     ///< tet bounds and tree refit (prepare), part of broad_ms
@@ -212,6 +215,12 @@ class Detector {
   std::vector<Index> box_slot_;         ///< scratch: tet of B -> index in subset_b_, or -1
   std::vector<Index> near_a_, near_b_;  ///< tets of the clusters meeting the overlap box
   AabbTree local_tree_;                 ///< kBvh over subset_b_ when it is a small part of B
+  /// What local_tree_ was built over: the body, its tets (subset_b_ then) and the frames
+  /// it has been refitted since. The same tets next frame (contact moves little between
+  /// frames) refit it instead of building it again.
+  const CollisionBody* local_tree_body_ = nullptr;
+  std::vector<Index> local_tree_tets_;
+  int local_tree_refits_ = 0;
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
   Geometry geom_a_, geom_b_;
