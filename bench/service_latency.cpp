@@ -1,7 +1,8 @@
 // Service benchmark: the real tetcollided over DDS on this host.
 //
 //   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--depth M]
-//                   [--bob M] [--lockstep | --wait] [--daemon-dds-config URI] [--json]
+//                   [--bob M] [--lockstep | --wait] [--daemon-dds-config URI]
+//                   [--daemon-threads N] [--json]
 //   service_latency --large [--daemon PATH] [--json]
 //
 // Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting
@@ -407,6 +408,10 @@ int main(int argc, char** argv) {
   std::string daemon_dds_config;
   app.add_option("--daemon-dds-config", daemon_dds_config,
                  "dds.cyclonedds_config of the started daemon (e.g. a DDS Security profile)");
+  int daemon_threads = 0;
+  app.add_option("--daemon-threads", daemon_threads,
+                 "threads of the started daemon (its config's `threads`; 0: one per core)")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
   if (std::getenv("CYCLONEDDS_URI") == nullptr)
@@ -420,6 +425,7 @@ int main(int argc, char** argv) {
     yaml << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
     if (!daemon_dds_config.empty())
       yaml << "dds:\n  cyclonedds_config: '" << daemon_dds_config << "'\n";
+    yaml << "threads: " << daemon_threads << "\n";
     yaml.close();
     if (!daemon.start(daemon_path, domain, config)) return 1;
   }
