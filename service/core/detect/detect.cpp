@@ -26,7 +26,7 @@ double ms_since(Clock::time_point start) {
 }
 
 constexpr std::size_t kNarrowChunk = 256;
-constexpr std::size_t kFeatureChunk = 128;
+constexpr std::size_t kFeatureChunk = 32;
 constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
 /// Frames a local tree over the same tets is refitted before it is built again.
@@ -285,7 +285,7 @@ void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
   g.boxes.resize(g.tets.size());
   for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
   const Positions& p = *body.positions_;
-  detail::for_chunks(g.tets.size(), 512, [&](std::size_t begin, std::size_t end, std::size_t) {
+  detail::for_chunks(g.tets.size(), 128, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t i = begin; i < end; ++i) {
       make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]), g.geom[i]);
       g.boxes[i] = {g.geom[i].lo, g.geom[i].hi, g.geom[i].scale};
