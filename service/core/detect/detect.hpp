@@ -54,16 +54,16 @@ struct DetectStats {
   std::size_t tets_a_near = 0;    ///< tets of A whose bounds were looked at (clusters)
   std::size_t tets_b_near = 0;    ///< same for B
   std::size_t candidates = 0;     ///< tet pairs out of the broad phase
-  /// kBvh over B's few tets near the contact: the last call's tree over the same tets
-  /// was refitted rather than built again.
-  bool local_tree_refitted = false;
-  std::size_t overlapping = 0;  ///< tet pairs out of the narrow phase
-  double broad_ms = 0.0;        ///< object boxes, tet bounds, tree refit, broad phase
-  double narrow_ms = 0.0;       ///< exact overlap tests, marked tets, intrusions
+  std::size_t overlapping = 0;    ///< tet pairs out of the narrow phase
+  double broad_ms = 0.0;          ///< object boxes, tet bounds, tree refit, broad phase
+  double narrow_ms = 0.0;         ///< exact overlap tests, marked tets, intrusions
   double total_ms = 0.0;
   // Finer split, included in the above.
   double bounds_ms = 0.0;     ///< tet bounds and tree refit (prepare), part of broad_ms
   double intrusion_ms = 0.0;  ///< intruding nodes and edges, part of narrow_ms
+  /// kBvh over B's few tets near the contact: the last call's tree over the same tets
+  /// was refitted rather than built again.
+  bool local_tree_refitted = false;
 };
 
 /// One object as detection sees it: its topology-derived tables (built once, in the
