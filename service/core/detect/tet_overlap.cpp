@@ -84,11 +84,11 @@ class Sat {
       // do not, nor give a smaller penetration (Gregorius, GDC 2013).
       double da[4][6], db[4][6];  // da[f][j] = unit normal f of A . arc j of B
       for (int f = 0; f < 4; ++f) {
-        const Vector3d ua = ga_.n[f] * ga_.n_inv[f];
-        const Vector3d ub = gb_.n[f] * gb_.n_inv[f];
+        const Vector3d ua = ga_.normal(f) * ga_.n_inv[f];
+        const Vector3d ub = gb_.normal(f) * gb_.n_inv[f];
         for (int k = 0; k < 6; ++k) {
-          da[f][k] = dot3(ua, gb_.arc[k]);
-          db[f][k] = dot3(ub, ga_.arc[k]);
+          da[f][k] = dot3(ua, gb_.arc(k));
+          db[f][k] = dot3(ub, ga_.arc(k));
         }
       }
       for (int i = 0; i < 6; ++i)
@@ -96,7 +96,7 @@ class Sat {
           const double s1 = -db[kEdgeFaces[j][0]][i], s2 = -db[kEdgeFaces[j][1]][i];
           const double s3 = da[kEdgeFaces[i][0]][j], s4 = da[kEdgeFaces[i][1]][j];
           if (arcs_disjoint(s1, s2, s3, s4)) continue;
-          if (axis(cross3(ga_.e[i], gb_.e[j]))) return false;
+          if (axis(cross3(ga_.edge(i), gb_.edge(j)))) return false;
         }
       return true;
     }
@@ -138,7 +138,7 @@ class Sat {
   bool faces(const TetGeometry& g, const Vector3d (&f)[4], const Vector3d (&o)[4]) {
     bool deep[4] = {!g.flat, !g.flat, !g.flat, !g.flat};
     for (int k = 0; k < 4; ++k) {
-      const Vector3d& n = g.n[k];
+      const Vector3d n = g.normal(k);
       const double len = g.n_len[k];
       if (!(len > 0.0) || !std::isfinite(len)) {
         deep[0] = deep[1] = deep[2] = deep[3] = false;
@@ -168,18 +168,19 @@ class Sat {
   }
 
   bool edge_pair(int i, int j) {
-    const Vector3d& ea = ga_.e[i];
-    const Vector3d& eb = gb_.e[j];
+    const Vector3d ea = ga_.edge(i);
+    const Vector3d eb = gb_.edge(j);
     const Vector3d n = ea.cross(eb);
     if (axis(n)) return true;
-    const double limit = kParallelSin * kParallelSin * ga_.e2[i] * gb_.e2[j];
+    const double ea2 = ea.squaredNorm(), eb2 = eb.squaredNorm();
+    const double limit = kParallelSin * kParallelSin * ea2 * eb2;
     if (n.squaredNorm() > limit) return false;
     // Parallel (or zero-length) edges: the direction from one line to the other,
     // perpendicular to the longer edge.
     const Vector3d d = b_[kTetEdges[j][0]] - a_[kTetEdges[i][0]];
-    const bool a_longer = ga_.e2[i] >= gb_.e2[j];
+    const bool a_longer = ea2 >= eb2;
     const Vector3d& e = a_longer ? ea : eb;
-    const double e2 = a_longer ? ga_.e2[i] : gb_.e2[j];
+    const double e2 = a_longer ? ea2 : eb2;
     if (!(e2 > 0.0)) return axis(d);
     const Vector3d perp = d - (d.dot(e) / e2) * e;
     if (perp.squaredNorm() > kEps * kEps * d.squaredNorm() && axis(perp)) return true;
@@ -353,7 +354,7 @@ class FastSat {
       unsigned crossing = ~lanes(disjoint(s1l, s2l, dl[f3], dl[f4])) & 15;
       crossing |= (~lanes(disjoint(s1h, s2h, dh[f3], dh[f4])) & 3) << 4;
       for (; crossing != 0; crossing &= crossing - 1)
-        if (separates(cross3(a_.e[i], b_.e[std::countr_zero(crossing)]))) return true;
+        if (separates(cross3(a_.edge(i), b_.edge(std::countr_zero(crossing))))) return true;
     }
     return false;
   }
@@ -436,25 +437,28 @@ void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
     g.hi = g.hi.cwiseMax(t[i]);
   }
   g.scale = (g.hi - g.lo).maxCoeff();
+  std::array<Vector3d, 6> e;
   for (int k = 0; k < 6; ++k) {
-    g.e[k] = t[kTetEdges[k][1]] - t[kTetEdges[k][0]];
-    g.e2[k] = g.e[k].squaredNorm();
+    e[k] = t[kTetEdges[k][1]] - t[kTetEdges[k][0]];
+    g.ex[k] = e[k].x(), g.ey[k] = e[k].y(), g.ez[k] = e[k].z();
   }
+  g.ex[6] = g.ex[7] = g.ey[6] = g.ey[7] = g.ez[6] = g.ez[7] = 0.0;
   // kTetEdges[0..2] = (0,1), (0,2), (0,3).
-  const double det = g.e[0].dot(g.e[1].cross(g.e[2]));
+  const double det = e[0].dot(e[1].cross(e[2]));
   g.flat = !(std::abs(det) > kFlat * g.scale * g.scale * g.scale);
   const double sign = det < 0.0 ? -1.0 : 1.0;
+  std::array<Vector3d, 4> n;
   for (int k = 0; k < 4; ++k) {
     const auto& f = kTetFaces[k];
-    g.n[k] = sign * (t[f[1]] - t[f[0]]).cross(t[f[2]] - t[f[0]]);
-    g.n_len[k] = g.n[k].norm();
+    n[k] = sign * (t[f[1]] - t[f[0]]).cross(t[f[2]] - t[f[0]]);
+    g.n_len[k] = n[k].norm();
     g.n_inv[k] = g.n_len[k] > 0.0 ? 1.0 / g.n_len[k] : 0.0;
     if (!(g.n_len[k] > 0.0) || !std::isfinite(g.n_len[k])) g.flat = true;
   }
   for (int k = 0; k < 6; ++k) {
     const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
-    g.arc[k] = (g.n[p] * g.n_inv[p]).cross(g.n[q] * g.n_inv[q]);
-    g.ax[k] = g.arc[k].x(), g.ay[k] = g.arc[k].y(), g.az[k] = g.arc[k].z();
+    const Vector3d arc = (n[p] * g.n_inv[p]).cross(n[q] * g.n_inv[q]);
+    g.ax[k] = arc.x(), g.ay[k] = arc.y(), g.az[k] = arc.z();
   }
   g.ax[6] = g.ax[7] = g.ay[6] = g.ay[7] = g.az[6] = g.az[7] = 0.0;
   // By coordinate, with the expressions Sat uses (a_[i] = v[i] - v[0], ua = n * n_inv,
@@ -462,12 +466,12 @@ void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
   TetCorners local;
   for (int i = 0; i < 4; ++i) local[i] = t[i] - t[0];
   for (int k = 0; k < 4; ++k) {
-    const Vector3d u = g.n[k] * g.n_inv[k];
-    g.nx[k] = g.n[k].x(), g.ny[k] = g.n[k].y(), g.nz[k] = g.n[k].z();
+    const Vector3d u = n[k] * g.n_inv[k];
+    g.nx[k] = n[k].x(), g.ny[k] = n[k].y(), g.nz[k] = n[k].z();
     g.ux[k] = u.x(), g.uy[k] = u.y(), g.uz[k] = u.z();
     g.lx[k] = local[k].x(), g.ly[k] = local[k].y(), g.lz[k] = local[k].z();
-    g.plane[k] = dot3(g.n[k], local[kTetFaces[k][0]]);
-    g.apex[k] = dot3(g.n[k], local[k]);
+    g.plane[k] = dot3(n[k], local[kTetFaces[k][0]]);
+    g.apex[k] = dot3(n[k], local[k]);
   }
   if (!(t[0].allFinite() && t[1].allFinite() && t[2].allFinite() && t[3].allFinite())) {
     // An empty box: separated from everything on the first axis.
@@ -529,7 +533,7 @@ PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double t
   Eigen::Vector4d w;
   const double tol = std::max(tolerance, 0.0);
   for (int k = 0; k < 4; ++k) {
-    w[k] = -dot3(t.n[k], p - t.v[kTetFaces[k][0]]);
+    w[k] = -dot3(t.normal(k), p - t.v[kTetFaces[k][0]]);
     if (!(w[k] >= -tol * t.n_len[k])) return out;  // outside face k (or NaN)
   }
   const double total = w.sum();
@@ -553,8 +557,9 @@ SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::V
   for (int k = 0; k < 4; ++k) {
     // Signed distances outside face k, metres; within tol of the plane counts as on it.
     const Vector3d& f = t.v[kTetFaces[k][0]];
-    double d0 = dot3(t.n[k], p0 - f) * t.n_inv[k];
-    double d1 = dot3(t.n[k], p1 - f) * t.n_inv[k];
+    const Vector3d n = t.normal(k);
+    double d0 = dot3(n, p0 - f) * t.n_inv[k];
+    double d1 = dot3(n, p1 - f) * t.n_inv[k];
     if (std::abs(d0) <= tol) d0 = 0.0;
     if (std::abs(d1) <= tol) d1 = 0.0;
     if (!(d0 <= 0.0 || d1 <= 0.0)) return out;  // both outside (or NaN)

@@ -34,10 +34,13 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
 struct TetGeometry {
   // Ordered by use, so that what a test reads is contiguous: the box (every pre-test);
   // what the face-plane tests read (lengths, normals by coordinate, inverses, corners);
-  // the rest of the vectorised overlap test; what only the reference walk and
-  // point_in_tet read. Arrays "by coordinate" (x, y, z apart; index = face k, corner i or
-  // edge j) feed the vector lanes of tets_overlap() and clip_segment_tet(); their values
-  // are bit for bit those the reference functions compute from the per-vector fields.
+  // the rest of the vectorised overlap test (unit normals, arcs, edges). Vectors are kept
+  // by coordinate only (x, y, z apart; index = face k, corner i or edge j): they feed the
+  // vector lanes of tets_overlap() and clip_segment_tet(), and the scalar reference
+  // functions read them back through normal(), edge() and arc(), so both see the same
+  // bits. Nothing is stored twice: a tet's geometry is written once a frame and read by
+  // every thread that tests a pair with it, and each cache line of it that moves between
+  // cores costs 30-160 ns here (docs/BENCHMARKS.md, "Two cores").
   Eigen::Vector3d lo, hi;            ///< bounding box, m
   double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
@@ -50,14 +53,17 @@ struct TetGeometry {
   /// the opposite corner project on n[k], in coordinates relative to v[0], m^3.
   std::array<double, 4> plane, apex;
   std::array<double, 4> ux, uy, uz;  ///< unit normals n[k] * n_inv[k] by coordinate
-  std::array<double, 8> ax, ay, az;  ///< arc[j] by coordinate for j < 6; entries 6, 7 are 0
-  std::array<Eigen::Vector3d, 6> e;  ///< edges v[j] - v[i], kTetEdges order, m
-  std::array<Eigen::Vector3d, 4> n;  ///< face normals (kTetFaces order, length 2 x area),
-                                     ///< outward unless flat, m^2
-  std::array<double, 6> e2;          ///< squared edge lengths, m^2
-  /// Gauss-map arc of each edge: (unit normal of one adjacent face) x (unit normal of
-  /// the other), kTetEdges order; unused when flat.
-  std::array<Eigen::Vector3d, 6> arc;
+  std::array<double, 8> ax, ay, az;  ///< arc j by coordinate for j < 6; entries 6, 7 are 0
+  std::array<double, 8> ex, ey, ez;  ///< edge j, v[b] - v[a] for kTetEdges[j] = (a, b), by
+                                     ///< coordinate for j < 6; entries 6, 7 are 0, m
+
+  /// Face normal k (kTetFaces order, length 2 x area), outward unless flat, m^2.
+  [[nodiscard]] Eigen::Vector3d normal(int k) const { return {nx[k], ny[k], nz[k]}; }
+  /// Edge j (kTetEdges order), m.
+  [[nodiscard]] Eigen::Vector3d edge(int j) const { return {ex[j], ey[j], ez[j]}; }
+  /// Gauss-map arc of edge j (kTetEdges order): (unit normal of one adjacent face) x (unit
+  /// normal of the other); unused when flat.
+  [[nodiscard]] Eigen::Vector3d arc(int j) const { return {ax[j], ay[j], az[j]}; }
 };
 
 /// Derived geometry of a tet given by its corners.

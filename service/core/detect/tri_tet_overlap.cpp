@@ -49,7 +49,7 @@ class TriSat {
     // The tet's face normals; a triangle corner deep inside every face is an overlap.
     bool deep[3] = {!k_.flat, !k_.flat, !k_.flat};
     for (int f = 0; f < 4; ++f) {
-      const Vector3d& n = k_.n[f];
+      const Vector3d n = k_.normal(f);
       const double len = k_.n_len[f];
       if (!(len > 0.0) || !std::isfinite(len)) {
         deep[0] = deep[1] = deep[2] = false;
@@ -75,7 +75,7 @@ class TriSat {
     if (axis(normal)) return false;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 6; ++j)
-        if (axis(cross3(te[i], k_.e[j]))) return false;
+        if (axis(cross3(te[i], k_.edge(j)))) return false;
     const double scale = (hi - lo).maxCoeff();
     const bool degenerate = !(std::sqrt(dot3(normal, normal)) > kFlat * scale * scale);
     if (!degenerate && !k_.flat) return true;
@@ -83,14 +83,14 @@ class TriSat {
     // the separating directions) that no normal or edge cross above gives.
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 6; ++j) {
-        if (axis(perpendicular(a_[i], b_[kTetEdges[j][0]], k_.e[j]))) return false;
+        if (axis(perpendicular(a_[i], b_[kTetEdges[j][0]], k_.edge(j)))) return false;
         if (i < 3 && j < 4 && axis(a_[i] - b_[j])) return false;
       }
     for (int j = 0; j < 4; ++j)
       for (int i = 0; i < 3; ++i)
         if (axis(perpendicular(b_[j], a_[i], te[i]))) return false;
     for (int i = 0; i < 9; ++i) {
-      const Vector3d& e = i < 3 ? te[i] : k_.e[i - 3];
+      const Vector3d e = i < 3 ? te[i] : k_.edge(i - 3);
       if (!(dot3(e, e) > 0.0)) continue;
       const Vector3d p = any_perpendicular(e);
       if (axis(p) || axis(cross3(e, p))) return false;
