@@ -10,12 +10,16 @@
 //   NarrowPairs/<fast>/<sink_um>           the exact tet-tet test alone on the torus/box
 //       pairs whose tet boxes overlap (what the broad phase hands over), per pair:
 //       fast = 0 tets_overlap_reference (scalar), 1 tets_overlap (vectorised)
+//   CoreRoundTrip                          one cache line between two pinned threads and
+//       back (bench/core_latency.hpp): which kind of core pair this machine gives now
 //
-// Time is wall-clock (UseRealTime); counters give the candidate and overlapping pairs
-// and the broad/narrow split. Results and commands: docs/BENCHMARKS.md.
+// Time is wall-clock (UseRealTime); counters give the candidate and overlapping pairs,
+// the broad/narrow split and, on 2 threads, the core-to-core round trip before and after
+// (core_rt_*_ns, bench/core_latency.hpp). Results and commands: docs/BENCHMARKS.md.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -24,6 +28,7 @@
 #include "core/detect/tet_overlap.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
+#include "core_latency.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -103,6 +108,7 @@ void run_frames(benchmark::State& state, const Object* a, const Object* b,
   body_a.set_positions(a->mesh.positions);
   body_b.set_positions(pb);
   detector.detect(body_a, body_b, contacts, &stats);
+  const double core_rt_before = state.range(1) > 1 ? bench::core_round_trip_ns() : 0.0;
   double broad = 0.0, narrow = 0.0, bounds = 0.0, intrusion = 0.0;
   for (auto _ : state) {
     body_a.set_positions(a->mesh.positions);
@@ -123,6 +129,11 @@ void run_frames(benchmark::State& state, const Object* a, const Object* b,
   state.counters["narrow_ms"] = narrow / n;
   state.counters["bounds_ms"] = bounds / n;
   state.counters["intrusion_ms"] = intrusion / n;
+  if (state.range(1) > 1) {
+    // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
+    state.counters["core_rt_before_ns"] = core_rt_before;
+    state.counters["core_rt_after_ns"] = bench::core_round_trip_ns();
+  }
   state.SetLabel(std::string(broad_phase_name(kind)));
 }
 
@@ -183,6 +194,21 @@ void NarrowPairs(benchmark::State& state) {
   state.SetLabel(state.range(0) != 0 ? "vectorised" : "reference");
 }
 
+/// One cache line between two threads pinned to two cores and back, per round trip
+/// (bench/core_latency.hpp); an iteration is a batch of 2,000 round trips. With
+/// --benchmark_repetitions it shows how often the two vCPUs of a virtual machine sit on
+/// cores that share a cache (~60 ns here) and how often not (~320 ns).
+void CoreRoundTrip(benchmark::State& state) {
+  for (auto _ : state) {
+    const double ns = bench::core_round_trip_ns(2000, 1);
+    if (std::isnan(ns)) {
+      state.SkipWithError("needs two CPUs this process may pin threads to");
+      return;
+    }
+    state.SetIterationTime(ns * 1e-9);
+  }
+}
+
 void torus_args(benchmark::internal::Benchmark* b) {
   for (const int kind : {0, 1, 2, 3})
     for (const int threads : {1, 2}) b->Args({kind, threads, 10000});
@@ -207,6 +233,7 @@ BENCHMARK(NarrowPairs)
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->MinTime(0.5);
+BENCHMARK(CoreRoundTrip)->Unit(benchmark::kNanosecond)->UseManualTime()->Iterations(20);
 BENCHMARK(LargeBoxes)
     ->Apply(large_args)
     ->ArgNames({"broad", "threads"})

@@ -3,7 +3,9 @@
 //   TorusInBox/<threads>/<depth_um>   Pipeline::run_frame of the service's scene
 //       (bench/service_latency): data/meshes/box.msh static, data/meshes/torus.msh
 //       resting depth_um micrometres deep on it and bobbing by +-2 mm (one state per
-//       frame, the torus only). Counters: the stage split of FrameStats.
+//       frame, the torus only). Counters: the stage split of FrameStats and, on 2
+//       threads, the core-to-core round trip before and after (core_rt_*_ns,
+//       bench/core_latency.hpp).
 //   Register/<cells>                  Pipeline::set_topology of a structured box of
 //       cells^3 x 6 tets (37: 303,918 tets, the service's "300k-tet object").
 //   BuildTopology/<cells>             build_topology alone on the same mesh.
@@ -21,6 +23,7 @@
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/pipeline/pipeline.hpp"
+#include "core_latency.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -69,6 +72,7 @@ void TorusInBox(benchmark::State& state) {
     return pipeline.run_frame(frame++, states);
   };
   run();  // untimed: builds the trees, the static box's depth map, sizes the buffers
+  const double core_rt_before = state.range(0) > 1 ? bench::core_round_trip_ns() : 0.0;
   for (auto _ : state) {
     const FrameOutput out = run();
     benchmark::DoNotOptimize(out.forces.data());
@@ -86,6 +90,11 @@ void TorusInBox(benchmark::State& state) {
   state.counters["response_ms"] = response / n;
   state.counters["total_ms"] = total / n;
   state.counters["contacts"] = static_cast<double>(contacts);
+  if (state.range(0) > 1) {
+    // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
+    state.counters["core_rt_before_ns"] = core_rt_before;
+    state.counters["core_rt_after_ns"] = bench::core_round_trip_ns();
+  }
 }
 
 TetMesh large_box(int cells) {

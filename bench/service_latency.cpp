@@ -13,7 +13,8 @@
 // the same with Client::wait_forces instead of the forces callback). For each frame it measures
 // state published -> forces received (client side) and the pipeline's compute time
 // (FrameStats.compute_ms), and reports p50/p99 of both and of their difference (the service's
-// overhead).
+// overhead), and the core-to-core round trip before and after the stream
+// (bench/core_latency.hpp: on a virtual machine it tells which kind of core pair ran).
 //
 // Large mode: two 303,918-tet structured boxes (37^3 cells x 6 tets) are registered one
 // after the other; it reports each one's registration time (register_object -> the
@@ -48,6 +49,7 @@
 #include <thread>
 
 #include "core/io/mesh_io.hpp"
+#include "core_latency.hpp"
 #include "protocol.hpp"
 #include "service_common.hpp"
 #include "test_meshes.hpp"
@@ -187,6 +189,9 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
   const auto period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
   std::vector<double> positions = torus_mesh.rest_positions;
+  // Which kind of core pair this machine gives two threads now (bench/core_latency.hpp):
+  // measured before the stream and after it, never during it.
+  const double core_rt_before = tc::bench::core_round_trip_ns();
   auto next = Clock::now();
   double daemon_cpu0 = 0.0, client_cpu0 = 0.0;
   for (int f = 0; f < warmup + frames; ++f) {
@@ -228,6 +233,7 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
   const double client_cpu = tc::bench::proc_figures(getpid()).cpu_s - client_cpu0;
   if (!args.wait) c->set_forces_callback(nullptr);
   stats.drain();
+  const double core_rt_after = tc::bench::core_round_trip_ns();
 
   std::vector<double> latency, compute, overhead, queue, publish, transport;
   std::array<std::vector<double>, 4> stage;
@@ -283,7 +289,9 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
                            // CPU over the measured frames (0 for the daemon without --daemon).
                            {"daemon_cpu_s", daemon_cpu},
                            {"daemon_cpu_ms_per_frame", 1000.0 * daemon_cpu / frames},
-                           {"client_cpu_ms_per_frame", 1000.0 * client_cpu / frames}};
+                           {"client_cpu_ms_per_frame", 1000.0 * client_cpu / frames},
+                           {"core_round_trip_ns_before", core_rt_before},
+                           {"core_round_trip_ns_after", core_rt_after}};
   if (json) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
@@ -314,6 +322,8 @@ int run_latency(std::uint32_t domain, const LatencyArgs& args, const Daemon* dae
                 out["daemon_cpu_ms_per_frame"].get<double>(),
                 daemon != nullptr ? "" : " (not started here)",
                 out["client_cpu_ms_per_frame"].get<double>());
+    std::printf("core-to-core round trip (bench/core_latency.hpp): %.0f ns before, %.0f ns after\n",
+                core_rt_before, core_rt_after);
   }
   return answered == static_cast<std::size_t>(frames) ? 0 : 1;
 }
