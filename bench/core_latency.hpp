@@ -39,7 +39,8 @@ inline bool pin_to(int cpu) {
 inline double core_round_trip_ns(int rounds = 4000, int batches = 5) {
   cpu_set_t mask;
   CPU_ZERO(&mask);
-  if (sched_getaffinity(0, sizeof mask, &mask) != 0) return std::numeric_limits<double>::quiet_NaN();
+  if (sched_getaffinity(0, sizeof mask, &mask) != 0)
+    return std::numeric_limits<double>::quiet_NaN();
   std::vector<int> cpus;
   for (int c = 0; c < CPU_SETSIZE && cpus.size() < 2; ++c)
     if (CPU_ISSET(c, &mask)) cpus.push_back(c);
@@ -74,8 +75,7 @@ inline double core_round_trip_ns(int rounds = 4000, int batches = 5) {
       }
     }
     per_batch.push_back(
-        std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start)
-            .count() /
+        std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() /
         rounds);
   }
   pinned_ok = pinned_ok && per_batch.size() == static_cast<std::size_t>(batches);
