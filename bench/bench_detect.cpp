@@ -129,11 +129,8 @@ void run_frames(benchmark::State& state, const Object* a, const Object* b,
   state.counters["narrow_ms"] = narrow / n;
   state.counters["bounds_ms"] = bounds / n;
   state.counters["intrusion_ms"] = intrusion / n;
-  if (state.range(1) > 1) {
-    // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
-    state.counters["core_rt_before_ns"] = core_rt_before;
-    state.counters["core_rt_after_ns"] = bench::core_round_trip_ns();
-  }
+  // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
+  if (state.range(1) > 1) bench::add_core_round_trips(state, core_rt_before);
   state.SetLabel(std::string(broad_phase_name(kind)));
 }
 

@@ -90,11 +90,8 @@ void TorusInBox(benchmark::State& state) {
   state.counters["response_ms"] = response / n;
   state.counters["total_ms"] = total / n;
   state.counters["contacts"] = static_cast<double>(contacts);
-  if (state.range(0) > 1) {
-    // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
-    state.counters["core_rt_before_ns"] = core_rt_before;
-    state.counters["core_rt_after_ns"] = bench::core_round_trip_ns();
-  }
+  // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
+  if (state.range(0) > 1) bench::add_core_round_trips(state, core_rt_before);
 }
 
 TetMesh large_box(int cells) {

@@ -1,11 +1,10 @@
 // How long a cache line takes to go from one core to another and back, measured with two
-// threads pinned to the first two CPUs this process may use (docs/BENCHMARKS.md, "Two
-// cores"). On a virtual machine the two vCPUs can sit on cores that share a cache or on
-// cores that do not, and the host can move them while a benchmark runs: the same binary
-// then measures ~60 ns here one minute and ~320 ns the next. Every 2-thread result moves
-// with it, because every parallel loop hands data from one core to the other; the
-// benchmarks report this probe beside their times so that a reader can tell the two cases
-// apart.
+// threads pinned to the first two CPUs this process may use (docs/BENCHMARKS.md,
+// Detection -> "Step 7"). On a virtual machine the two vCPUs can sit on cores that share a cache or
+// on cores that do not, and the host can move them while a benchmark runs: the same binary then
+// measures ~60 ns here one minute and ~320 ns the next. Every 2-thread result moves with it,
+// because every parallel loop hands data from one core to the other; the benchmarks report this
+// probe beside their times so that a reader can tell the two cases apart.
 #pragma once
 
 #include <pthread.h>
@@ -14,7 +13,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cmath>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -78,16 +76,21 @@ inline double core_round_trip_ns(int rounds = 4000, int batches = 5) {
         std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() /
         rounds);
   }
-  pinned_ok = pinned_ok && per_batch.size() == static_cast<std::size_t>(batches);
-  if (!pinned_ok) {
-    // Release the echo thread if it still waits.
-    line.value.store(-1, std::memory_order_release);
-  }
+  // A failed pin on either side stops both loops (they poll pinned_ok).
   echo.join();
   pthread_setaffinity_np(pthread_self(), sizeof saved, &saved);
   if (!pinned_ok) return std::numeric_limits<double>::quiet_NaN();
   std::sort(per_batch.begin(), per_batch.end());
   return per_batch[per_batch.size() / 2];
+}
+
+/// Adds the probe taken before a 2-thread benchmark's timed loop (`before`) and one taken
+/// now to its counters as core_rt_before_ns and core_rt_after_ns (`State`: a Google
+/// Benchmark state; a template so that this header needs no benchmark library).
+template <typename State>
+void add_core_round_trips(State& state, double before) {
+  state.counters["core_rt_before_ns"] = before;
+  state.counters["core_rt_after_ns"] = core_round_trip_ns();
 }
 
 }  // namespace tc::bench

@@ -442,7 +442,6 @@ void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
     e[k] = t[kTetEdges[k][1]] - t[kTetEdges[k][0]];
     g.ex[k] = e[k].x(), g.ey[k] = e[k].y(), g.ez[k] = e[k].z();
   }
-  g.ex[6] = g.ex[7] = g.ey[6] = g.ey[7] = g.ez[6] = g.ez[7] = 0.0;
   // kTetEdges[0..2] = (0,1), (0,2), (0,3).
   const double det = e[0].dot(e[1].cross(e[2]));
   g.flat = !(std::abs(det) > kFlat * g.scale * g.scale * g.scale);

@@ -40,7 +40,7 @@ struct TetGeometry {
   // functions read them back through normal(), edge() and arc(), so both see the same
   // bits. Nothing is stored twice: a tet's geometry is written once a frame and read by
   // every thread that tests a pair with it, and each cache line of it that moves between
-  // cores costs 30-160 ns here (docs/BENCHMARKS.md, "Two cores").
+  // cores costs 30-160 ns here (docs/BENCHMARKS.md, Detection -> "Step 7").
   Eigen::Vector3d lo, hi;            ///< bounding box, m
   double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
@@ -54,8 +54,8 @@ struct TetGeometry {
   std::array<double, 4> plane, apex;
   std::array<double, 4> ux, uy, uz;  ///< unit normals n[k] * n_inv[k] by coordinate
   std::array<double, 8> ax, ay, az;  ///< arc j by coordinate for j < 6; entries 6, 7 are 0
-  std::array<double, 8> ex, ey, ez;  ///< edge j, v[b] - v[a] for kTetEdges[j] = (a, b), by
-                                     ///< coordinate for j < 6; entries 6, 7 are 0, m
+  std::array<double, 6> ex, ey, ez;  ///< edge j, v[b] - v[a] for kTetEdges[j] = (a, b), by
+                                     ///< coordinate, m
 
   /// Face normal k (kTetFaces order, length 2 x area), outward unless flat, m^2.
   [[nodiscard]] Eigen::Vector3d normal(int k) const { return {nx[k], ny[k], nz[k]}; }
