@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <random>
 #include <tuple>
+#include <vector>
 
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
@@ -717,6 +718,11 @@ TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
       const Vector3d o(offset, 0.5 * offset, -offset);
       const TetGeometry g = make_tet_geometry(transform(t, scale, o));
       const Vector3d q0 = p0 * scale + o, q1 = p1 * scale + o;
+      // The batched form over the same tet at the three tolerances, and the mirrored
+      // tet (another geometry in the same batch), must give each single call's bits.
+      const TetGeometry gm = make_tet_geometry(transform({t[1], t[0], t[2], t[3]}, scale, o));
+      std::vector<ClipTarget> targets;
+      std::vector<SegmentClip> wants;
       for (const double tol : {0.0, kTol * scale, 1e-3 * scale}) {
         const SegmentClip want = clip_segment_tet_reference(q0, q1, g, tol);
         const SegmentClip got = clip_segment_tet(q0, q1, g, tol);
@@ -729,6 +735,21 @@ TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
             << "iteration " << iter;
         hits += want.hit ? 1 : 0;
         ++checked;
+        targets.push_back({&g, tol});
+        wants.push_back(want);
+        targets.push_back({&gm, tol});
+        wants.push_back(clip_segment_tet_reference(q0, q1, gm, tol));
+      }
+      std::vector<SegmentClip> batch(targets.size() + 1);  // longer than needed: allowed
+      clip_segment_tets(q0, q1, targets, batch);
+      for (std::size_t k = 0; k < targets.size(); ++k) {
+        ASSERT_EQ(batch[k].hit, wants[k].hit) << "iteration " << iter << " target " << k;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(batch[k].lambda_in),
+                  std::bit_cast<std::uint64_t>(wants[k].lambda_in))
+            << "iteration " << iter << " target " << k;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(batch[k].lambda_out),
+                  std::bit_cast<std::uint64_t>(wants[k].lambda_out))
+            << "iteration " << iter << " target " << k;
       }
     }
   }

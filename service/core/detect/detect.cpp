@@ -31,6 +31,17 @@ constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
 /// Frames a local tree over the same tets is refitted before it is built again.
 constexpr int kLocalTreeRefits = 32;
+/// How many candidate pairs ahead the narrow phase asks for B's tet geometry: the pairs
+/// come sorted by A's tet, so B's tets are scattered, and the first read of each one
+/// otherwise waits for memory.
+constexpr std::size_t kPrefetchPairs = 4;
+
+/// Asks for the first 6 cache lines of a tet's geometry: what the exact test reads first
+/// (box, face normal lengths and normals, inverse lengths, corners).
+inline void prefetch_geometry(const TetGeometry& g) {
+  const char* p = reinterpret_cast<const char*>(&g);
+  for (std::size_t off = 0; off < 384; off += 64) __builtin_prefetch(p + off);
+}
 
 template <typename T>
 void sort_values(std::vector<T>& v) {
@@ -445,16 +456,17 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   {
     const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
     detail::reset_parts(pair_parts_, chunks);
-    detail::for_chunks(candidates_.size(), kNarrowChunk,
-                       [&](std::size_t begin, std::size_t end, std::size_t c) {
-                         for (std::size_t i = begin; i < end; ++i) {
-                           const TetPair& p = candidates_[i];
-                           const TetGeometry& ga = geom_a_.geom[geom_a_.slot[p.tet_a]];
-                           const TetGeometry& gb = geom_b_.geom[geom_b_.slot[p.tet_b]];
-                           if (tets_overlap(ga, gb, rel * pair_scale(ga, gb)))
-                             pair_parts_[c].push_back(p);
-                         }
-                       });
+    detail::for_chunks(
+        candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+          for (std::size_t i = begin; i < end; ++i) {
+            if (i + kPrefetchPairs < end)
+              prefetch_geometry(geom_b_.geom[geom_b_.slot[candidates_[i + kPrefetchPairs].tet_b]]);
+            const TetPair& p = candidates_[i];
+            const TetGeometry& ga = geom_a_.geom[geom_a_.slot[p.tet_a]];
+            const TetGeometry& gb = geom_b_.geom[geom_b_.slot[p.tet_b]];
+            if (tets_overlap(ga, gb, rel * pair_scale(ga, gb))) pair_parts_[c].push_back(p);
+          }
+        });
     detail::concat_parts(pair_parts_, chunks, out.overlapping);
   }
   st.overlapping = out.overlapping.size();
@@ -545,8 +557,23 @@ namespace {
 struct VisitMarks {
   std::vector<std::uint64_t> mark;
   std::uint64_t now = 0;
+  // intruding_edges, one edge at a time, reused: the tets whose box the edge meets (slot
+  // and clip target) and their clips.
+  std::vector<Index> clip_slots;
+  std::vector<ClipTarget> clip_targets;
+  std::vector<SegmentClip> clips;
+  std::vector<detail::EdgeHit> hits;
 };
 thread_local VisitMarks t_marks;
+
+/// The box [slo, shi] meets [lo - tol, hi + tol]: Eigen's (slo <= hi + tol).all() && (shi
+/// >= lo - tol).all(), the same six comparisons of the same sums as plain scalar code
+/// (fewer instructions in the edge scan, which tests ~10,000 boxes a frame here).
+inline bool meets_padded_box(const Eigen::Vector3d& slo, const Eigen::Vector3d& shi,
+                             const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double tol) {
+  return (slo.x() <= hi.x() + tol) & (slo.y() <= hi.y() + tol) & (slo.z() <= hi.z() + tol) &
+         (shi.x() >= lo.x() - tol) & (shi.y() >= lo.y() - tol) & (shi.z() >= lo.z() - tol);
+}
 
 }  // namespace
 
@@ -621,8 +648,13 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
       features_.size(), kFeatureChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
         VisitMarks& marks = t_marks;
         if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
-        std::vector<detail::EdgeHit> hits;
+        std::vector<detail::EdgeHit>& hits = marks.hits;
         std::vector<IntrudingEdge>& part = edge_parts_[c];
+        const Index* const row_of = row_of_.data();
+        const Index* const offsets = rows.offsets.data();
+        const Index* const items = rows.items.data();
+        const TetBox* const boxes = gy.boxes.data();
+        const TetGeometry* const geom = gy.geom.data();
         for (std::size_t i = begin; i < end; ++i) {
           const Index edge = features_[i];
           const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
@@ -632,35 +664,48 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
           {
             // As for the nodes: every box test below passes only inside this one.
             const double tol = rel * std::max(gy.reach.scale, length);
-            if (!((lo.array() <= gy.reach.hi.array() + tol).all() &&
-                  (hi.array() >= gy.reach.lo.array() - tol).all()))
-              continue;
+            if (!meets_padded_box(lo, hi, gy.reach.lo, gy.reach.hi, tol)) continue;
           }
           const std::uint64_t now = ++marks.now;
-          hits.clear();
-          // Every tet of Y overlapped by a marked tet of X around the edge, once.
+          // Local pointers: a vector's growth is a call, after which the compiler would
+          // otherwise reload the marks and rows through the thread-local on every visit.
+          std::uint64_t* const mark = marks.mark.data();
+          marks.clip_slots.clear();
+          marks.clip_targets.clear();
+          // Every tet of Y overlapped by a marked tet of X around the edge, once (an edge has
+          // ~15 such visits here for ~9 distinct tets, ~5.5 clipped, ~1.8 hit).
           for (const Index t : x.edge_tets_.row(edge)) {
-            const Index r = row_of_[t];
+            const Index r = row_of[t];
             if (r < 0) continue;
-            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
-              const Index slot = rows.items[k];
-              if (marks.mark[slot] == now) continue;
-              marks.mark[slot] = now;
-              const TetBox& box = gy.boxes[slot];
+            for (const Index *k = items + offsets[r], *kend = items + offsets[r + 1]; k != kend;
+                 ++k) {
+              const Index slot = *k;
+              if (mark[slot] == now) continue;
+              mark[slot] = now;
+              const TetBox& box = boxes[slot];
               const double tol = rel * std::max(box.scale, length);
-              if (!((lo.array() <= box.hi.array() + tol).all() &&
-                    (hi.array() >= box.lo.array() - tol).all()))
-                continue;
-              const SegmentClip clip = clip_segment_tet(p0, p1, gy.geom[slot], tol);
-              if (clip.hit)
-                hits.push_back(
-                    {{edge, gy.tets[slot], clip.lambda_in, clip.lambda_out}, tol / length});
+              if (!meets_padded_box(lo, hi, box.lo, box.hi, tol)) continue;
+              marks.clip_slots.push_back(slot);
+              marks.clip_targets.push_back({&geom[slot], tol});
             }
           }
-          std::sort(hits.begin(), hits.end(),
-                    [](const detail::EdgeHit& u, const detail::EdgeHit& v) {
-                      return u.edge.tet < v.edge.tet;
-                    });
+          const std::size_t n = marks.clip_targets.size();
+          if (n == 0) continue;
+          if (marks.clips.size() < n) marks.clips.resize(n);
+          clip_segment_tets(p0, p1, marks.clip_targets, marks.clips);
+          hits.clear();
+          for (std::size_t j = 0; j < n; ++j) {
+            const SegmentClip& clip = marks.clips[j];
+            if (clip.hit)
+              hits.push_back({{edge, gy.tets[marks.clip_slots[j]], clip.lambda_in, clip.lambda_out},
+                              marks.clip_targets[j].tolerance / length});
+          }
+          if (hits.empty()) continue;
+          if (hits.size() > 1)
+            std::sort(hits.begin(), hits.end(),
+                      [](const detail::EdgeHit& u, const detail::EdgeHit& v) {
+                        return u.edge.tet < v.edge.tet;
+                      });
           detail::append_edge_hits(hits, part);
         }
       });

@@ -388,11 +388,11 @@ class FastSat {
 // lambda_out is the min of 1 and the leaving ratios, which are positive or zero; the order can only
 // change the sign of a zero result, and a zero lambda_out is never a hit (it needs lambda_out >
 // lambda_in >= 0), so the returned values are the same.
-TC_INLINE SegmentClip clip_lanes(const Vector3d& p0, const Vector3d& p1, const TetGeometry& t,
-                                 double tolerance) {
+// `length` is (p1 - p0).norm(), computed by the caller (once for many tets).
+TC_INLINE SegmentClip clip_lanes(const Vector3d& p0, const Vector3d& p1, double length,
+                                 const TetGeometry& t, double tolerance) {
   SegmentClip out;
   const double tol = std::max(tolerance, 0.0);
-  const double length = (p1 - p0).norm();
   if (!(length > tol) || !std::isfinite(length) || t.flat) return out;
   // Face k's plane passes through corner kTetFaces[k][0] = 1, 0, 0, 0.
   const Vector3d& f0 = t.v[0];
@@ -578,7 +578,15 @@ SegmentClip clip_segment_tet_reference(const Eigen::Vector3d& p0, const Eigen::V
 TC_TARGET_CLONES_AVX2 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0,
                                                    const Eigen::Vector3d& p1, const TetGeometry& t,
                                                    double tolerance) {
-  return clip_lanes(p0, p1, t, tolerance);
+  return clip_lanes(p0, p1, (p1 - p0).norm(), t, tolerance);
+}
+
+TC_TARGET_CLONES_AVX2 void clip_segment_tets(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                             std::span<const ClipTarget> targets,
+                                             std::span<SegmentClip> out) {
+  const double length = (p1 - p0).norm();
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    out[i] = clip_lanes(p0, p1, length, *targets[i].tet, targets[i].tolerance);
 }
 
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,

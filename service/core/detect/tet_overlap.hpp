@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <span>
 
 #include "core/mesh/tet_mesh.hpp"
 
@@ -139,6 +140,19 @@ SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p
                              const TetGeometry& t, double tolerance);
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                              const TetCorners& t, double tolerance);
+
+/// One tet of clip_segment_tets(): its geometry and the tolerance to clip with (metres).
+struct ClipTarget {
+  const TetGeometry* tet = nullptr;
+  double tolerance = 0.0;
+};
+
+/// out[i] = clip_segment_tet(p0, p1, *targets[i].tet, targets[i].tolerance) for every i
+/// (out.size() >= targets.size()), bit for bit: one call for the several tets a segment
+/// is clipped against (the intrusion scans clip each edge against ~5), which sets the
+/// segment up once and keeps the per-tet work inline instead of a call per tet.
+void clip_segment_tets(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                       std::span<const ClipTarget> targets, std::span<SegmentClip> out);
 
 /// clip_segment_tet() one face after the other (the 4 faces are lanes of one vector in
 /// clip_segment_tet(), with the same result bit for bit); the reference in tests.
