@@ -329,12 +329,18 @@ class FastSat {
     const V4 bxh = load4(b_.ax.data() + 4), byh = load4(b_.ay.data() + 4),
              bzh = load4(b_.az.data() + 4);
     V4 dl[4], dh[4];
+    // Unit normals as Sat forms them, n * (1 / |n|) per coordinate (not stored: 96 bytes
+    // more of every tet's geometry to write and move between cores, for the ~1 pair in 4
+    // that reaches this stage).
     for (int f = 0; f < 4; ++f) {
-      const V4 x = splat(a_.ux[f]), y = splat(a_.uy[f]), z = splat(a_.uz[f]);
+      const double inv = a_.n_inv[f];
+      const V4 x = splat(a_.nx[f] * inv), y = splat(a_.ny[f] * inv), z = splat(a_.nz[f] * inv);
       dl[f] = vdot(x, y, z, bxl, byl, bzl);
       dh[f] = vdot(x, y, z, bxh, byh, bzh);
     }
-    const V4 ux = load4(b_.ux.data()), uy = load4(b_.uy.data()), uz = load4(b_.uz.data());
+    const V4 binv = load4(b_.n_inv.data());
+    const V4 ux = load4(b_.nx.data()) * binv, uy = load4(b_.ny.data()) * binv,
+             uz = load4(b_.nz.data()) * binv;
     const V4 eps = splat(kArcEps), neg = splat(-kArcEps);
     const auto disjoint = [&](V4 s1, V4 s2, V4 s3, V4 s4) {
       const M4 p1 = s1 > eps, n1 = s1 < neg;
@@ -460,14 +466,12 @@ void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
     g.ax[k] = arc.x(), g.ay[k] = arc.y(), g.az[k] = arc.z();
   }
   g.ax[6] = g.ax[7] = g.ay[6] = g.ay[7] = g.az[6] = g.az[7] = 0.0;
-  // By coordinate, with the expressions Sat uses (a_[i] = v[i] - v[0], ua = n * n_inv,
-  // dot3), so the vectorised test sees the same bits.
+  // By coordinate, with the expressions Sat uses (a_[i] = v[i] - v[0], dot3), so the
+  // vectorised test sees the same bits.
   TetCorners local;
   for (int i = 0; i < 4; ++i) local[i] = t[i] - t[0];
   for (int k = 0; k < 4; ++k) {
-    const Vector3d u = n[k] * g.n_inv[k];
     g.nx[k] = n[k].x(), g.ny[k] = n[k].y(), g.nz[k] = n[k].z();
-    g.ux[k] = u.x(), g.uy[k] = u.y(), g.uz[k] = u.z();
     g.lx[k] = local[k].x(), g.ly[k] = local[k].y(), g.lz[k] = local[k].z();
     g.plane[k] = dot3(n[k], local[kTetFaces[k][0]]);
     g.apex[k] = dot3(n[k], local[k]);

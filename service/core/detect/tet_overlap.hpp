@@ -35,10 +35,10 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
 struct TetGeometry {
   // Ordered by use, so that what a test reads is contiguous: the box (every pre-test);
   // what the face-plane tests read (lengths, normals by coordinate, inverses, corners);
-  // the rest of the vectorised overlap test (unit normals, arcs, edges). Vectors are kept
-  // by coordinate only (x, y, z apart; index = face k, corner i or edge j): they feed the
-  // vector lanes of tets_overlap() and clip_segment_tet(), and the scalar reference
-  // functions read them back through normal(), edge() and arc(), so both see the same
+  // the rest of the vectorised overlap test (arcs, edges; the unit normals are formed from n and
+  // n_inv where used). Vectors are kept by coordinate only (x, y, z apart; index = face k, corner i
+  // or edge j): they feed the vector lanes of tets_overlap() and clip_segment_tet(), and the scalar
+  // reference functions read them back through normal(), edge() and arc(), so both see the same
   // bits. Nothing is stored twice: a tet's geometry is written once a frame and read by
   // every thread that tests a pair with it, and each cache line of it that moves between
   // cores costs 30-160 ns here (docs/BENCHMARKS.md, Detection -> "Step 7").
@@ -53,7 +53,6 @@ struct TetGeometry {
   /// n[k] . (v[kTetFaces[k][0]] - v[0]) and n[k] . (v[k] - v[0]): where face k's plane and
   /// the opposite corner project on n[k], in coordinates relative to v[0], m^3.
   std::array<double, 4> plane, apex;
-  std::array<double, 4> ux, uy, uz;  ///< unit normals n[k] * n_inv[k] by coordinate
   std::array<double, 8> ax, ay, az;  ///< arc j by coordinate for j < 6; entries 6, 7 are 0
   std::array<double, 6> ex, ey, ez;  ///< edge j, v[b] - v[a] for kTetEdges[j] = (a, b), by
                                      ///< coordinate, m
