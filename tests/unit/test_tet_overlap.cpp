@@ -9,7 +9,9 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
+#include <span>
 #include <tuple>
 #include <vector>
 
@@ -394,6 +396,79 @@ INSTANTIATE_TEST_SUITE_P(TetOverlap, ContactSweep,
                          ::testing::Combine(::testing::Range(0, 5),
                                             ::testing::Values(-1e-3, -1e-6, 0.0, 1e-7, 1e-4, 1e-2),
                                             kFrames));
+
+/// Bits of a double, with every NaN alike (no caller looks at a NaN's payload).
+std::uint64_t bits(double x) {
+  return std::isnan(x) ? 0x7ff8000000000000ULL : std::bit_cast<std::uint64_t>(x);
+}
+
+/// Every field of `got` has the bits of `want`'s (NaNs alike).
+void expect_same_geometry(const TetGeometry& got, const TetGeometry& want, int iter, int lane) {
+  const auto same = [&](std::span<const double> g, std::span<const double> w, const char* name) {
+    ASSERT_EQ(g.size(), w.size());
+    for (std::size_t k = 0; k < g.size(); ++k)
+      ASSERT_EQ(bits(g[k]), bits(w[k]))
+          << name << "[" << k << "] iteration " << iter << " lane " << lane;
+  };
+  same({got.lo.data(), 3}, {want.lo.data(), 3}, "lo");
+  same({got.hi.data(), 3}, {want.hi.data(), 3}, "hi");
+  same({&got.scale, 1}, {&want.scale, 1}, "scale");
+  ASSERT_EQ(got.flat, want.flat) << "flat, iteration " << iter << " lane " << lane;
+  same(got.n_len, want.n_len, "n_len");
+  same(got.nx, want.nx, "nx");
+  same(got.ny, want.ny, "ny");
+  same(got.nz, want.nz, "nz");
+  same(got.n_inv, want.n_inv, "n_inv");
+  for (int i = 0; i < 4; ++i) same({got.v[i].data(), 3}, {want.v[i].data(), 3}, "v");
+  same(got.lx, want.lx, "lx");
+  same(got.ly, want.ly, "ly");
+  same(got.lz, want.lz, "lz");
+  same(got.plane, want.plane, "plane");
+  same(got.apex, want.apex, "apex");
+  same(got.ax, want.ax, "ax");
+  same(got.ay, want.ay, "ay");
+  same(got.az, want.az, "az");
+  same(got.ex, want.ex, "ex");
+  same(got.ey, want.ey, "ey");
+  same(got.ez, want.ez, "ez");
+}
+
+TEST(TetGeometry, FourAtOnceHasTheBitsOfOneAtATime) {
+  // Random tets of any quality (slivers and flat ones included), both orientations,
+  // repeated corners, 1e6 offsets and 1e-6 scales, and corners that are NaN or infinite.
+  std::mt19937 rng(31337);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  int flat = 0, nonfinite = 0;
+  for (int iter = 0; iter < 5000; ++iter) {
+    std::array<TetCorners, 4> t;
+    for (int j = 0; j < 4; ++j) {
+      const int kind = (iter + j) % 8;
+      TetCorners c = random_tet(rng, kind == 0 ? 0.0 : 0.05);
+      if (kind == 1) std::swap(c[0], c[1]);                                          // inverted
+      if (kind == 2) c[3] = c[0] + u(rng) * (c[1] - c[0]) + u(rng) * (c[2] - c[0]);  // flat
+      if (kind == 3) c[2] = c[1];                                                    // repeated
+      const double scale = iter % 3 == 0 ? 1e-6 : 1.0;
+      const Vector3d offset = iter % 5 == 0 ? Vector3d(1e6, -5e5, 2e5) : Vector3d::Zero();
+      c = transform(c, scale, offset);
+      if (kind == 4 && iter % 4 == 0) c[iter % 4][(iter / 4) % 3] = (iter % 8 == 0) ? nan : inf;
+      if (kind == 5 && iter % 7 == 0) c[1].x() = -inf;
+      t[j] = c;
+    }
+    std::array<TetGeometry, 4> got;
+    make_tet_geometry4(t, got.data());
+    for (int j = 0; j < 4; ++j) {
+      const TetGeometry want = make_tet_geometry(t[j]);
+      expect_same_geometry(got[j], want, iter, j);
+      if (HasFatalFailure()) return;
+      flat += want.flat ? 1 : 0;
+      nonfinite += want.scale == 0.0 && want.lo.x() == inf ? 1 : 0;
+    }
+  }
+  EXPECT_GT(flat, 2000);  // the flat, repeated and non-finite kinds
+  EXPECT_GT(nonfinite, 100);
+}
 
 TEST(TetOverlap, TranslationAndScaleInvariantOnRandomPairs) {
   std::mt19937 rng(99);

@@ -427,12 +427,202 @@ TC_INLINE SegmentClip clip_lanes(const Vector3d& p0, const Vector3d& p1, double 
   return out;
 }
 
+/// Lane j of r[0..3] becomes row j: out[j] = (r[0][j], r[1][j], r[2][j], r[3][j]).
+TC_INLINE void transpose4(const V4 (&r)[4], V4 (&out)[4]) {
+  const V4 t0 = __builtin_shufflevector(r[0], r[1], 0, 4, 2, 6);
+  const V4 t1 = __builtin_shufflevector(r[0], r[1], 1, 5, 3, 7);
+  const V4 t2 = __builtin_shufflevector(r[2], r[3], 0, 4, 2, 6);
+  const V4 t3 = __builtin_shufflevector(r[2], r[3], 1, 5, 3, 7);
+  out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+
+/// Writes field values r[k] (lane j = tet j) as entries k = 0..3 of each tet's array.
+template <typename Field>
+TC_INLINE void store_rows(const V4 (&r)[4], TetGeometry* g, Field field) {
+  V4 rows[4];
+  transpose4(r, rows);
+#pragma GCC unroll 8
+  for (int j = 0; j < 4; ++j) std::memcpy((g[j].*field).data(), &rows[j], sizeof(V4));
+}
+
+/// The same for the 6 entries of an edge array: r[0..5]; entries 6 and 7 (when the array
+/// has them) get 0.
+template <typename Field>
+TC_INLINE void store_rows6(const V4 (&r)[6], TetGeometry* g, Field field) {
+  V4 rows[4], tail[4];
+  transpose4({r[0], r[1], r[2], r[3]}, rows);
+  transpose4({r[4], r[5], splat(0.0), splat(0.0)}, tail);
+#pragma GCC unroll 8
+  for (int j = 0; j < 4; ++j) {
+    auto& a = g[j].*field;
+    std::memcpy(a.data(), &rows[j], sizeof(V4));
+    std::memcpy(a.data() + 4, &tail[j], (a.size() - 4) * sizeof(double));
+  }
+}
+
+/// cross3 lane by lane: (a.y b.z - a.z b.y, a.z b.x - a.x b.z, a.x b.y - a.y b.x).
+TC_INLINE void vcross(V4 ax, V4 ay, V4 az, V4 bx, V4 by, V4 bz, V4& cx, V4& cy, V4& cz) {
+  cx = ay * bz - az * by;
+  cy = az * bx - ax * bz;
+  cz = ax * by - ay * bx;
+}
+
 }  // namespace
 
 TetGeometry make_tet_geometry(const TetCorners& t) {
   TetGeometry g;
   make_tet_geometry(t, g);
   return g;
+}
+
+namespace {
+
+// make_tet_geometry() of 4 tets, one per lane, each lane with the scalar function's
+// operations in its order (Eigen's 3-vector dot and squared norm are (x X + y Y) + z Z,
+// its cross product is cross3's, cwiseMin/Max are std::min/max, a vector times a scalar
+// is per coordinate), so every field has the scalar function's bits; the unit tests
+// compare the two field by field.
+// (Kept apart from the multiversioned entry point: a call that passes a 4-double vector
+// from that function's baseline copy is an ABI error for clang.)
+TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* out) {
+  // Each group of fields is computed and written before the next one starts, so that few
+  // vectors are live at once (the whole tet in registers would spill most of them).
+  V4 X[4], Y[4], Z[4];  // corner i by coordinate, lane j = tet j
+#pragma GCC unroll 8
+  for (int i = 0; i < 4; ++i) {
+    X[i] = V4{t[0][i].x(), t[1][i].x(), t[2][i].x(), t[3][i].x()};
+    Y[i] = V4{t[0][i].y(), t[1][i].y(), t[2][i].y(), t[3][i].y()};
+    Z[i] = V4{t[0][i].z(), t[1][i].z(), t[2][i].z(), t[3][i].z()};
+  }
+  const V4 zero = splat(0.0);
+  V4 scale;
+  M4 finite;
+  {
+    V4 lox = X[0], loy = Y[0], loz = Z[0], hix = X[0], hiy = Y[0], hiz = Z[0];
+    finite = (X[0] - X[0] == zero) & (Y[0] - Y[0] == zero) & (Z[0] - Z[0] == zero);
+#pragma GCC unroll 8
+    for (int i = 1; i < 4; ++i) {
+      lox = vmin(lox, X[i]), loy = vmin(loy, Y[i]), loz = vmin(loz, Z[i]);
+      hix = vmax(hix, X[i]), hiy = vmax(hiy, Y[i]), hiz = vmax(hiz, Z[i]);
+      finite &= (X[i] - X[i] == zero) & (Y[i] - Y[i] == zero) & (Z[i] - Z[i] == zero);
+    }
+    // (hi - lo).maxCoeff(): extents of finite corners are >= +0 and not NaN, so any order
+    // of the maxima gives the same value (other tets are overwritten at the end).
+    scale = vmax(vmax(hix - lox, hiy - loy), hiz - loz);
+#pragma GCC unroll 8
+    for (int j = 0; j < 4; ++j) {
+      out[j].lo = Vector3d(lox[j], loy[j], loz[j]);
+      out[j].hi = Vector3d(hix[j], hiy[j], hiz[j]);
+      out[j].scale = scale[j];
+      out[j].v = t[j];
+    }
+  }
+  // Edges (kTetEdges order), then 6V and the orientation from the first three.
+  M4 flat;
+  V4 sign;
+  {
+    V4 e[6];
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) e[k] = X[kTetEdges[k][1]] - X[kTetEdges[k][0]];
+    store_rows6(e, out, &TetGeometry::ex);
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) e[k] = Y[kTetEdges[k][1]] - Y[kTetEdges[k][0]];
+    store_rows6(e, out, &TetGeometry::ey);
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) e[k] = Z[kTetEdges[k][1]] - Z[kTetEdges[k][0]];
+    store_rows6(e, out, &TetGeometry::ez);
+    // kTetEdges[0..2] = (0,1), (0,2), (0,3).
+    V4 cx, cy, cz;
+    vcross(X[2] - X[0], Y[2] - Y[0], Z[2] - Z[0], X[3] - X[0], Y[3] - Y[0], Z[3] - Z[0], cx, cy,
+           cz);
+    const V4 det = vdot(X[1] - X[0], Y[1] - Y[0], Z[1] - Z[0], cx, cy, cz);
+    const V4 abs_det = det < zero ? -det : det;
+    flat = ~(abs_det > splat(kFlat) * scale * scale * scale);
+    sign = det < zero ? splat(-1.0) : splat(1.0);
+  }
+  // Corners relative to the first.
+  V4 lx[4], ly[4], lz[4];
+#pragma GCC unroll 8
+  for (int i = 0; i < 4; ++i) lx[i] = X[i] - X[0], ly[i] = Y[i] - Y[0], lz[i] = Z[i] - Z[0];
+  store_rows(lx, out, &TetGeometry::lx);
+  store_rows(ly, out, &TetGeometry::ly);
+  store_rows(lz, out, &TetGeometry::lz);
+  // Face normals, their lengths and inverses; the planes and apexes they give.
+  V4 nx[4], ny[4], nz[4], inv[4];
+  {
+    V4 len[4], plane[4], apex[4];
+#pragma GCC unroll 8
+    for (int k = 0; k < 4; ++k) {
+      const auto& f = kTetFaces[k];
+      V4 cx, cy, cz;
+      vcross(X[f[1]] - X[f[0]], Y[f[1]] - Y[f[0]], Z[f[1]] - Z[f[0]], X[f[2]] - X[f[0]],
+             Y[f[2]] - Y[f[0]], Z[f[2]] - Z[f[0]], cx, cy, cz);
+      nx[k] = sign * cx, ny[k] = sign * cy, nz[k] = sign * cz;
+      const V4 squared = vdot(nx[k], ny[k], nz[k], nx[k], ny[k], nz[k]);
+#pragma GCC unroll 8
+      for (int j = 0; j < 4; ++j) len[k][j] = std::sqrt(squared[j]);
+      const M4 positive = len[k] > zero;
+      inv[k] = positive ? splat(1.0) / len[k] : zero;
+      flat |= ~positive | ~(len[k] < splat(kInf));  // !(|n| > 0) || !isfinite(|n|)
+      const int c = f[0];
+      plane[k] = vdot(nx[k], ny[k], nz[k], lx[c], ly[c], lz[c]);
+      apex[k] = vdot(nx[k], ny[k], nz[k], lx[k], ly[k], lz[k]);
+    }
+    store_rows(len, out, &TetGeometry::n_len);
+    store_rows(nx, out, &TetGeometry::nx);
+    store_rows(ny, out, &TetGeometry::ny);
+    store_rows(nz, out, &TetGeometry::nz);
+    store_rows(inv, out, &TetGeometry::n_inv);
+    store_rows(plane, out, &TetGeometry::plane);
+    store_rows(apex, out, &TetGeometry::apex);
+  }
+  // Gauss-map arcs: (unit normal p) x (unit normal q) for the faces beside each edge.
+  {
+    V4 ux[4], uy[4], uz[4];
+#pragma GCC unroll 8
+    for (int k = 0; k < 4; ++k)
+      ux[k] = nx[k] * inv[k], uy[k] = ny[k] * inv[k], uz[k] = nz[k] * inv[k];
+    V4 a[6];
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) {
+      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+      a[k] = uy[p] * uz[q] - uz[p] * uy[q];
+    }
+    store_rows6(a, out, &TetGeometry::ax);
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) {
+      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+      a[k] = uz[p] * ux[q] - ux[p] * uz[q];
+    }
+    store_rows6(a, out, &TetGeometry::ay);
+#pragma GCC unroll 8
+    for (int k = 0; k < 6; ++k) {
+      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+      a[k] = ux[p] * uy[q] - uy[p] * ux[q];
+    }
+    store_rows6(a, out, &TetGeometry::az);
+  }
+#pragma GCC unroll 8
+  for (int j = 0; j < 4; ++j) {
+    TetGeometry& g = out[j];
+    g.flat = flat[j] != 0;
+    if (finite[j] == 0) {  // as make_tet_geometry(): an empty box, separated from all
+      g.lo.setConstant(kInf);
+      g.hi.setConstant(-kInf);
+      g.scale = 0.0;
+      g.flat = true;
+    }
+  }
+}
+
+}  // namespace
+
+TC_TARGET_CLONES_AVX2 void make_tet_geometry4(const std::array<TetCorners, 4>& t,
+                                              TetGeometry* out) {
+  geometry_lanes(t, out);
 }
 
 void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
