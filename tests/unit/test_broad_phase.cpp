@@ -5,6 +5,11 @@
 #include <tbb/global_control.h>
 
 #include <Eigen/Dense>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 #include <tuple>
 
@@ -287,6 +292,60 @@ TEST(ClippedTetBox, HoldsTheClippedTetAndNoMore) {
   const Aabb padded = clipped_tet_box(t, Aabb{Vector3d(-1, -1, 0.5), Vector3d(2, 2, 0.6)}, 2, 0.01);
   EXPECT_NEAR(padded.lo.z(), 0.49, 1e-12);
   EXPECT_NEAR(padded.hi.x(), 0.51, 1e-12);
+}
+
+/// Bits of a double, with every NaN alike.
+std::uint64_t bits_of(double x) {
+  return std::isnan(x) ? 0x7ff8000000000000ULL : std::bit_cast<std::uint64_t>(x);
+}
+
+TEST(ClippedTetBox, FourAtOnceHaveTheBitsOfOneAtATime) {
+  // Random tets against thin slabs on each axis: corners inside, outside and exactly on
+  // the slab planes, edges along a plane, flat and repeated-corner tets, 1e6 offsets and
+  // 1e-6 scales, NaN and infinite corners, pads 0, tiny and large.
+  std::mt19937 rng(2718);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  int nonempty = 0, empty = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    const int axis = iter % 3;
+    const double scale = iter % 5 == 0 ? 1e-6 : 1.0;
+    const Vector3d offset = iter % 7 == 0 ? Vector3d(1e6, -2e6, 5e5) : Vector3d::Zero();
+    Vector3d lo = Vector3d::Constant(-0.2), hi = Vector3d::Constant(1.2);
+    lo[axis] = 0.8 * u(rng);
+    hi[axis] = lo[axis] + (iter % 11 == 0 ? 0.0 : 0.1 * u(rng));
+    lo[(axis + 1) % 3] = 0.5 * u(rng);
+    const Aabb region{lo * scale + offset, hi * scale + offset};
+    std::array<TetCorners, 4> t;
+    std::array<double, 4> pad;
+    for (int j = 0; j < 4; ++j) {
+      for (auto& p : t[j]) p = Vector3d(u(rng), u(rng), u(rng));
+      const int kind = (iter + j) % 9;
+      if (kind == 1) t[j][0][axis] = lo[axis];                       // a corner on a plane
+      if (kind == 2) t[j][1][axis] = t[j][2][axis] = hi[axis];       // an edge in a plane
+      if (kind == 3) t[j][3] = t[j][0] + 0.5 * (t[j][1] - t[j][0]);  // flat
+      if (kind == 4) t[j][2] = t[j][1];                              // repeated corner
+      for (auto& p : t[j]) p = p * scale + offset;
+      if (kind == 5 && iter % 2 == 0) t[j][iter % 4][(iter / 4) % 3] = nan;
+      if (kind == 6 && iter % 3 == 0) t[j][1][(axis + 1) % 3] = -inf;
+      pad[j] = kind == 7 ? 0.0 : (kind == 8 ? 0.05 * scale : 1e-9 * scale);
+    }
+    std::array<Aabb, 4> got;
+    clipped_tet_boxes4(t, region, axis, pad, got);
+    for (int j = 0; j < 4; ++j) {
+      const Aabb want = clipped_tet_box(t[j], region, axis, pad[j]);
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_EQ(bits_of(got[j].lo[c]), bits_of(want.lo[c]))
+            << "iteration " << iter << " tet " << j;
+        ASSERT_EQ(bits_of(got[j].hi[c]), bits_of(want.hi[c]))
+            << "iteration " << iter << " tet " << j;
+      }
+      (want.empty() ? empty : nonempty) += 1;
+    }
+  }
+  EXPECT_GT(nonempty, 20000);
+  EXPECT_GT(empty, 5000);
 }
 
 TEST(AabbTree, RefitAfterDeformationQueriesLikeBruteForce) {

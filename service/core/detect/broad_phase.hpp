@@ -126,6 +126,11 @@ class AabbTree {
 /// box is a thin slab and these boxes are far smaller than the tets' own.
 Aabb clipped_tet_box(const TetCorners& t, const Aabb& region, int axis, double pad);
 
+/// out[j] = clipped_tet_box(t[j], region, axis, pad[j]) for 4 tets at once (one per vector
+/// lane): the same bits, for about a third of the instructions.
+void clipped_tet_boxes4(const std::array<TetCorners, 4>& t, const Aabb& region, int axis,
+                        const std::array<double, 4>& pad, std::array<Aabb, 4>& out);
+
 /// One object's side of a broad-phase query.
 struct BroadPhaseSide {
   /// The tets to consider, sorted.

@@ -387,19 +387,40 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     detail::reset_parts(box_parts_, chunks);
     const Positions& p = *body.positions_;
     detail::for_chunks(m, kFilterChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+      // The tets whose box meets the overlap box, 4 at a time through clipped_tet_boxes4
+      // (the same boxes as clipped_tet_box), in order.
+      std::array<TetCorners, 4> corners;
+      std::array<double, 4> pads;
+      std::array<Index, 4> tets;
+      std::array<Aabb, 4> clipped;
+      std::size_t waiting = 0;
+      const auto flush = [&] {
+        if (waiting == 4) {
+          clipped_tet_boxes4(corners, cull, slab_axis, pads, clipped);
+        } else {
+          for (std::size_t j = 0; j < waiting; ++j)
+            clipped[j] = clipped_tet_box(corners[j], cull, slab_axis, pads[j]);
+        }
+        for (std::size_t j = 0; j < waiting; ++j) {
+          if (clipped[j].empty()) continue;
+          index_parts_[c].push_back(tets[j]);
+          box_parts_[c].push_back(clipped[j]);
+        }
+        waiting = 0;
+      };
       for (std::size_t i = begin; i < end; ++i) {
         const auto t = static_cast<std::size_t>(near[i]);
         const Aabb& raw = body.bounds_.boxes[t];
         if (!raw.overlaps(cull)) continue;
         // Pad: the tolerance scale of this tet, plus rounding of its coordinates.
-        const double pad = rel * (raw.hi - raw.lo).maxCoeff() +
-                           8.0 * std::numeric_limits<double>::epsilon() *
-                               raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
-        const Aabb box = clipped_tet_box(tet_corners(p, body.tets_[t]), cull, slab_axis, pad);
-        if (box.empty()) continue;
-        index_parts_[c].push_back(static_cast<Index>(t));
-        box_parts_[c].push_back(box);
+        pads[waiting] = rel * (raw.hi - raw.lo).maxCoeff() +
+                        8.0 * std::numeric_limits<double>::epsilon() *
+                            raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
+        corners[waiting] = tet_corners(p, body.tets_[t]);
+        tets[waiting] = static_cast<Index>(t);
+        if (++waiting == 4) flush();
       }
+      flush();
     });
     detail::concat_parts(index_parts_, chunks, subset);
     detail::concat_parts(box_parts_, chunks, boxes);

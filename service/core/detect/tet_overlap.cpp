@@ -7,10 +7,9 @@
 #include <cstring>
 #include <limits>
 
-#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
-
 #include "core/common/target_clones.hpp"
 #include "core/detect/exact_vec3.hpp"
+#include "core/detect/lanes.hpp"
 #include "core/mesh/geometry.hpp"
 
 namespace tc {
@@ -194,40 +193,6 @@ class Sat {
   double best_ = kInf;
   bool accepted_ = false;
 };
-
-#define TC_INLINE [[gnu::always_inline]] inline
-
-/// Four doubles in one vector (two SSE2 registers on baseline x86-64, one AVX register
-/// where enabled); arithmetic and comparisons act lane by lane, IEEE-exact like scalars.
-using V4 = double __attribute__((vector_size(32)));
-using M4 = std::int64_t __attribute__((vector_size(32)));  ///< lane masks: -1 or 0
-
-TC_INLINE V4 load4(const double* p) {
-  V4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-TC_INLINE V4 splat(double x) {
-  return V4{x, x, x, x};
-}
-/// std::min(a, b) and std::max(a, b) lane by lane (same lane chosen for NaN and +-0; the
-/// form of the x86 min/max instructions).
-TC_INLINE V4 vmin(V4 a, V4 b) {
-  return b < a ? b : a;
-}
-TC_INLINE V4 vmax(V4 a, V4 b) {
-  return a < b ? b : a;
-}
-/// dot3 lane by lane, same order: (x X + y Y) + z Z.
-TC_INLINE V4 vdot(V4 x, V4 y, V4 z, V4 X, V4 Y, V4 Z) {
-  return x * X + y * Y + z * Z;
-}
-/// Bit k set when lane k of m is set.
-TC_INLINE unsigned lanes(M4 m) {
-  const V4 d = reinterpret_cast<V4>(m);
-  const __m128d lo = __builtin_shufflevector(d, d, 0, 1), hi = __builtin_shufflevector(d, d, 2, 3);
-  return static_cast<unsigned>(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
-}
 
 /// tets_overlap(): Sat<true>::run() for two non-flat tets, 4 axes at a time.
 ///
