@@ -25,6 +25,9 @@ constexpr std::size_t kQueryChunk = 64;
 /// Subtree depth above which AabbTree::refit forks.
 constexpr int kRefitParallelDepth = 6;
 
+/// Per-thread hit list of one tree query (bvh_pairs), reused across chunks and frames.
+thread_local std::vector<Index> t_found;
+
 bool sphere_overlap(const BoundingSphere& a, const BoundingSphere& b) {
   const double r = a.radius + b.radius;
   return a.radius >= 0.0 && b.radius >= 0.0 && (a.center - b.center).squaredNorm() <= r * r;
@@ -641,16 +644,23 @@ void BroadPhase::bvh_pairs(const BroadPhaseSide& a, const BroadPhaseSide& b, con
   detail::for_chunks(a.tets.size(), kQueryChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t chunk) {
                        std::vector<TetPair>& part = parts_[chunk];
-                       std::vector<Index> found;
+                       std::vector<Index>& found = t_found;
                        for (std::size_t i = begin; i < end; ++i) {
                          const Aabb& box = a.boxes[i];
                          found.clear();
                          bvh.tree->query(box, bvh.tet_boxes, found);
-                         std::sort(found.begin(), found.end());
+                         // A handful of hits: sorted in place, no call.
+                         for (std::size_t j = 1; j < found.size(); ++j)
+                           for (std::size_t k = j; k > 0 && found[k] < found[k - 1]; --k)
+                             std::swap(found[k], found[k - 1]);
+                         if (bvh.over_side) {
+                           // The tree is over b.boxes itself: its query already tested them.
+                           for (const Index k : found) part.push_back({a.tets[i], b.tets[k]});
+                           continue;
+                         }
                          for (const Index tb : found) {
-                           const Index k = bvh.over_side ? tb : bvh.slot[tb];
-                           if (k >= 0 && box.overlaps(b.boxes[k]))
-                             part.push_back({a.tets[i], bvh.over_side ? b.tets[k] : tb});
+                           const Index k = bvh.slot[tb];
+                           if (k >= 0 && box.overlaps(b.boxes[k])) part.push_back({a.tets[i], tb});
                          }
                        }
                      });
