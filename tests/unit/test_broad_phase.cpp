@@ -216,6 +216,33 @@ TEST(BroadPhase, NamesRoundTrip) {
   EXPECT_FALSE(parse_broad_phase("").has_value());
 }
 
+TEST(TetBounds, ANonFiniteCornerGivesAnEmptyBoxAndNoSphere) {
+  // One tet per case, corner 2 changed in one coordinate: finite (the exact box), +inf,
+  // -inf, NaN, and the largest finite values (whose sums would overflow).
+  const double inf = std::numeric_limits<double>::infinity();
+  const double big = std::numeric_limits<double>::max();
+  for (const double bad : {0.5, inf, -inf, std::numeric_limits<double>::quiet_NaN(), big}) {
+    for (int c = 0; c < 3; ++c) {
+      Positions p(3, 4);
+      p << 0, 1, 0, 0,  //
+          0, 0, 1, 0,   //
+          0, 0, 0, 1;
+      p(c, 2) = bad;
+      if (bad == big) p(c, 1) = big;  // two corners at the largest double
+      const std::vector<Tet> tets = {Tet{0, 1, 2, 3}};
+      TetBounds b;
+      b.compute(p, tets, true);
+      const bool finite = std::isfinite(bad);
+      EXPECT_EQ(b.boxes[0].empty(), !finite) << "coordinate " << c << " value " << bad;
+      EXPECT_EQ(b.spheres[0].radius >= 0.0, finite) << "coordinate " << c << " value " << bad;
+      if (finite) {
+        EXPECT_EQ(b.boxes[0].lo, p.rowwise().minCoeff()) << c;
+        EXPECT_EQ(b.boxes[0].hi, p.rowwise().maxCoeff()) << c;
+      }
+    }
+  }
+}
+
 TEST(TetBounds, BoxesAndSpheresHoldTheCorners) {
   std::mt19937 rng(8);
   const TetMesh m = transformed(soup(rng, 300, 0.2, true), 1e-3, Vector3d(1e6, 0, 0));
