@@ -550,25 +550,20 @@ TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* o
 #pragma GCC unroll 8
     for (int k = 0; k < 4; ++k)
       ux[k] = nx[k] * inv[k], uy[k] = ny[k] * inv[k], uz[k] = nz[k] * inv[k];
-    V4 a[6];
+    // One coordinate of cross3(u_p, u_q) for the 6 edges: s_p w_q - w_p s_q with (s, w) =
+    // (y, z), (z, x), (x, y).
+    const auto arc_coordinate = [&](const V4(&s)[4], const V4(&w)[4], auto field) {
+      V4 a[6];
 #pragma GCC unroll 8
-    for (int k = 0; k < 6; ++k) {
-      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
-      a[k] = uy[p] * uz[q] - uz[p] * uy[q];
-    }
-    store_rows6(a, out, &TetGeometry::ax);
-#pragma GCC unroll 8
-    for (int k = 0; k < 6; ++k) {
-      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
-      a[k] = uz[p] * ux[q] - ux[p] * uz[q];
-    }
-    store_rows6(a, out, &TetGeometry::ay);
-#pragma GCC unroll 8
-    for (int k = 0; k < 6; ++k) {
-      const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
-      a[k] = ux[p] * uy[q] - uy[p] * ux[q];
-    }
-    store_rows6(a, out, &TetGeometry::az);
+      for (int k = 0; k < 6; ++k) {
+        const int p = kEdgeFaces[k][0], q = kEdgeFaces[k][1];
+        a[k] = s[p] * w[q] - w[p] * s[q];
+      }
+      store_rows6(a, out, field);
+    };
+    arc_coordinate(uy, uz, &TetGeometry::ax);
+    arc_coordinate(uz, ux, &TetGeometry::ay);
+    arc_coordinate(ux, uy, &TetGeometry::az);
   }
 #pragma GCC unroll 8
   for (int j = 0; j < 4; ++j) {
