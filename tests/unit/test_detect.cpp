@@ -593,6 +593,65 @@ TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
   }
 }
 
+// The cluster boxes are refitted only inside the groups of clusters that meet the region,
+// or all of them when last frame's contact met most groups. Over frames that deform the
+// large object, alternate a small press (few groups) with a wide one (most groups: the
+// next frame refits every cluster) and put a NaN node far from the tool, the near tets
+// are those a new body (first frame: groups) gives, and the contacts those of the full
+// pass.
+TEST(Detect, ClusterGroupsGiveTheNearTetsOfEveryClusterWhateverLastFrameDid) {
+  const Object large(test::structured_box(24, 24, 8, Vector3d(0, 0, 0), Vector3d(1, 1, 0.3)));
+  const TetMesh small_tool = test::ball_mesh(3, 0.06);
+  const TetMesh wide_tool = test::ball_mesh(3, 0.9);
+  DetectOptions on, off;
+  off.cluster_cull = false;
+  CollisionBody body_large(large.mesh.tets, large.topo);
+  Detector with(on), without(off);
+  std::mt19937 rng(77);
+  std::normal_distribution<double> jitter(0.0, 1e-3);
+  std::size_t fewest = large.mesh.tets.size(), most = 0;
+  for (int frame = 0; frame < 8; ++frame) {
+    SCOPED_TRACE(frame);
+    Positions p = large.mesh.positions;
+    // Jittered, and the whole object moved 3 cm a frame (stale cluster boxes would miss).
+    const Vector3d shift(0.03 * frame, -0.02 * frame, 0.0);
+    for (Eigen::Index i = 0; frame > 0 && i < p.cols(); ++i)
+      for (int c = 0; c < 3; ++c) p(c, i) += jitter(rng) + shift[c];
+    if (frame == 5) p(0, 0) = std::numeric_limits<double>::quiet_NaN();  // a far corner
+    body_large.set_positions(p);
+    const bool wide = frame % 3 == 1;
+    const Object tool(wide
+                          ? moved(wide_tool, Matrix3d::Identity(), Vector3d(0.5, 0.5, 1.02) + shift)
+                          : moved(small_tool, Matrix3d::Identity(),
+                                  Vector3d(0.3 + 0.05 * frame, 0.45, 0.34) + shift));
+    CollisionBody body_tool(tool.mesh.tets, tool.topo);
+    body_tool.set_positions(tool.mesh.positions);
+    PairContacts got, want;
+    DetectStats st;
+    with.detect(body_large, body_tool, got, &st);
+    without.detect(body_large, body_tool, want);
+    EXPECT_FALSE(want.overlapping.empty());
+    expect_identical(got, want);
+    // The same near tets as a body with the same clusters (made from the first frame's
+    // positions) that was not asked before, so refits its groups first.
+    const Aabb region = body_large.box().intersection(body_tool.box());
+    std::vector<Index> near, fresh_near;
+    body_large.tets_near(region, near);
+    CollisionBody fresh(large.mesh.tets, large.topo);
+    fresh.set_positions(large.mesh.positions);  // the same clusters as body_large's
+    fresh.set_positions(p);
+    fresh.tets_near(region, fresh_near);
+    EXPECT_EQ(near, fresh_near);
+    EXPECT_EQ(near.size(), st.tets_a_near);
+    fewest = std::min(fewest, near.size());
+    most = std::max(most, near.size());
+  }
+  // Both kinds of frame happened: a press that looks at a tenth of the object at most,
+  // and one that looks at more than half.
+  EXPECT_LT(fewest * 10, large.mesh.tets.size()) << fewest;
+  EXPECT_GT(most * 2, large.mesh.tets.size()) << most;
+}
+
 // A tool creeping across a large object (1 kHz motion): the tree over the large object's
 // few tets near the contact is refitted while those tets stay the same, and rebuilt when
 // they change or after 32 refits; the contacts are every frame those of a one-off.

@@ -151,6 +151,19 @@ namespace {
 /// Tets per spatial cluster: small enough that a small contact region touches few
 /// clusters, large enough that refitting them costs little next to reading the nodes.
 constexpr std::size_t kClusterTets = 64;
+/// Clusters per group (1,024 tets): a group reads each of its nodes about once, a
+/// cluster's nodes are shared with its neighbours (~2.5 reads a node over all clusters).
+constexpr std::size_t kClustersPerGroup = 16;
+
+/// Box of the finite points among `nodes`.
+Aabb box_of_nodes(const Positions& positions, std::span<const Index> nodes) {
+  Aabb b;
+  for (const Index i : nodes) {
+    const Eigen::Vector3d p = positions.col(i);
+    if (finite3(p)) b.extend(p);
+  }
+  return b;
+}
 
 }  // namespace
 
@@ -180,6 +193,21 @@ void CollisionBody::build_clusters(const Positions& positions) {
     cluster_nodes_.indices.insert(cluster_nodes_.indices.end(), nodes.begin(), nodes.end());
     cluster_nodes_.offsets.push_back(static_cast<Index>(cluster_nodes_.indices.size()));
   }
+  tet_boxes_.assign(clusters, Aabb{});
+  cluster_frame_.assign(clusters, 0);
+  group_nodes_.offsets.assign(1, 0);
+  group_nodes_.indices.clear();
+  for (std::size_t first = 0; first < clusters; first += kClustersPerGroup) {
+    nodes.clear();
+    const auto last = static_cast<Index>(std::min(clusters, first + kClustersPerGroup));
+    nodes.insert(nodes.end(), cluster_nodes_.indices.begin() + cluster_nodes_.offsets[first],
+                 cluster_nodes_.indices.begin() + cluster_nodes_.offsets[last]);
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    group_nodes_.indices.insert(group_nodes_.indices.end(), nodes.begin(), nodes.end());
+    group_nodes_.offsets.push_back(static_cast<Index>(group_nodes_.indices.size()));
+  }
+  group_boxes_.assign(static_cast<std::size_t>(group_nodes_.rows()), Aabb{});
   box_frame_.assign(m, 0);
   sphere_frame_.assign(m, 0);
 }
@@ -196,7 +224,9 @@ void CollisionBody::set_positions(const Positions& positions) {
     frame_ = 1;
     std::fill(box_frame_.begin(), box_frame_.end(), 0);
     std::fill(sphere_frame_.begin(), sphere_frame_.end(), 0);
+    std::fill(cluster_frame_.begin(), cluster_frame_.end(), 0);
   }
+  decide_groups();
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
   constexpr std::size_t kChunk = 8192;
   const std::size_t chunks = detail::num_chunks(n, kChunk);
@@ -217,37 +247,79 @@ void CollisionBody::set_positions(const Positions& positions) {
 void CollisionBody::reuse_positions() {
   if (positions_ == nullptr)
     throw std::logic_error("CollisionBody::reuse_positions: set_positions() was not called");
-  // Nothing to reset: the frame stamp, the ready flags and what they cover still hold.
+  // Nothing else to reset: the frame stamp, the ready flags and what they cover still hold.
+  decide_groups();
+}
+
+void CollisionBody::decide_groups() {
+  if (near_asked_)  // whether last frame's regions met few enough groups for them to pay
+    use_groups_ = 2 * groups_met_ < group_boxes_.size();
+  near_asked_ = false;
+  groups_met_ = 0;
 }
 
 void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
   if (positions_ == nullptr)
     throw std::logic_error("CollisionBody::tets_near: set_positions() was not called");
-  if (!clusters_ready_) {
-    // The cluster boxes, from the nodes each cluster's tets use (~2.5 reads per node),
-    // once per frame and only for bodies in a pair whose object boxes touch.
-    const Positions& positions = *positions_;
-    const auto clusters = static_cast<std::size_t>(cluster_tets_.rows());
-    tet_boxes_.resize(clusters);
-    detail::for_chunks(clusters, 256, [&](std::size_t begin, std::size_t end, std::size_t) {
-      for (std::size_t c = begin; c < end; ++c) {
-        Aabb b;
-        for (const Index i : cluster_nodes_.row(static_cast<Index>(c))) {
-          const Eigen::Vector3d p = positions.col(i);
-          if (finite3(p)) b.extend(p);
-        }
-        tet_boxes_[c] = b;
+  const Positions& positions = *positions_;
+  const auto clusters = static_cast<std::size_t>(cluster_tets_.rows());
+  const auto groups = static_cast<std::size_t>(group_nodes_.rows());
+  // Refits the listed clusters' boxes from the nodes their tets use, once a frame each.
+  const auto refit = [&](std::span<const Index> list) {
+    detail::for_chunks(list.size(), 256, [&](std::size_t begin, std::size_t end, std::size_t) {
+      for (std::size_t k = begin; k < end; ++k) {
+        const auto c = static_cast<std::size_t>(list[k]);
+        tet_boxes_[c] = box_of_nodes(positions, cluster_nodes_.row(list[k]));
+        cluster_frame_[c] = frame_;
       }
     });
+  };
+  if (!clusters_ready_) {
+    // Once per frame and only for bodies in a pair whose object boxes touch: the group
+    // boxes (each node read about once), or, when last frame's contact met most groups,
+    // every cluster box directly.
+    if (use_groups_) {
+      detail::for_chunks(groups, 16, [&](std::size_t begin, std::size_t end, std::size_t) {
+        for (std::size_t g = begin; g < end; ++g)
+          group_boxes_[g] = box_of_nodes(positions, group_nodes_.row(static_cast<Index>(g)));
+      });
+    } else {
+      stale_clusters_.resize(clusters);
+      std::iota(stale_clusters_.begin(), stale_clusters_.end(), Index{0});
+      refit(stale_clusters_);
+      for (std::size_t g = 0; g < groups; ++g) {  // the same boxes, from the clusters'
+        Aabb b;
+        const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
+        for (std::size_t c = g * kClustersPerGroup; c < last; ++c) b.extend(tet_boxes_[c]);
+        group_boxes_[g] = b;
+      }
+    }
     clusters_ready_ = true;
   }
+  near_asked_ = true;
+  // The clusters of the groups that meet the region; those not refitted yet this frame
+  // are refitted now. A cluster's box lies in its group's.
+  const auto group_met = [&](std::size_t g) { return group_boxes_[g].overlaps(region); };
+  stale_clusters_.clear();
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (!group_met(g)) continue;
+    ++groups_met_;
+    const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
+    for (std::size_t c = g * kClustersPerGroup; c < last; ++c)
+      if (cluster_frame_[c] != frame_) stale_clusters_.push_back(static_cast<Index>(c));
+  }
+  refit(stale_clusters_);
   // The clusters partition the tets: their rows, merged in tet order through a bitmap
   // (a sort of the few thousand tets near a contact cost more than the rest of the cull).
   out.clear();
   detail::SortedIndexSet set(near_bits_, tets_.size());
-  for (Index c = 0; c < cluster_tets_.rows(); ++c)
-    if (tet_boxes_[c].overlaps(region))
-      for (const Index t : cluster_tets_.row(c)) set.insert(t);
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (!group_met(g)) continue;
+    const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
+    for (std::size_t c = g * kClustersPerGroup; c < last; ++c)
+      if (tet_boxes_[c].overlaps(region))
+        for (const Index t : cluster_tets_.row(static_cast<Index>(c))) set.insert(t);
+  }
   set.drain(out);
 }
 

@@ -126,10 +126,26 @@ class CollisionBody {
   /// along a Morton curve of their centroids and cut into runs of 64; each frame a
   /// cluster's box is refitted from the nodes its tets use.
   void build_clusters(const Positions& positions);
-  Csr cluster_tets_;             ///< per cluster: its tets, sorted
-  Csr cluster_nodes_;            ///< per cluster: the nodes its tets use, sorted
-  std::vector<Aabb> tet_boxes_;  ///< per cluster: box of its tets, this frame
-  bool clusters_ready_ = false;  ///< tet_boxes_ refitted for this frame
+  Csr cluster_tets_;                          ///< per cluster: its tets, sorted
+  Csr cluster_nodes_;                         ///< per cluster: the nodes its tets use, sorted
+  std::vector<Aabb> tet_boxes_;               ///< per cluster: box of its tets (valid when stamped)
+  std::vector<std::uint32_t> cluster_frame_;  ///< per cluster: frame tet_boxes_ was refitted
+  /// Groups of consecutive clusters (neighbours on the Morton curve): the nodes their tets
+  /// use, and their boxes this frame. A cluster can meet a region only if its group does,
+  /// so only the clusters of the groups that meet it are refitted.
+  Csr group_nodes_;
+  std::vector<Aabb> group_boxes_;
+  /// Last frame's regions met fewer than half of the groups: refit the groups first, then
+  /// the clusters of the groups that meet. Else (a contact spread over most of the
+  /// object) every cluster is refitted directly, which reads fewer nodes, and the group
+  /// boxes are made from the cluster boxes.
+  bool use_groups_ = true;
+  /// Starts a frame's count of the groups met, after setting use_groups_ from the last.
+  void decide_groups();
+  bool near_asked_ = false;            ///< tets_near() was called this frame
+  std::size_t groups_met_ = 0;         ///< groups that met a region this frame (over all calls)
+  bool clusters_ready_ = false;        ///< this frame's group boxes (or all cluster boxes) made
+  std::vector<Index> stale_clusters_;  ///< scratch for tets_near()
   std::vector<std::uint32_t> box_frame_, sphere_frame_;  ///< per tet: frame bounds were made
   std::uint32_t frame_ = 0;               ///< set_positions() calls, never 0 after the first
   std::vector<Index> stale_;              ///< scratch for ensure_bounds()
