@@ -15,6 +15,19 @@ namespace tc {
 
 using Eigen::Vector3d;
 
+namespace {
+
+/// The last step of clipped_tet_box(): a non-empty box padded by `pad` and cut to the
+/// region padded the same; an empty box as it is.
+TC_INLINE Aabb padded_in_region(Aabb box, const Aabb& region, double pad) {
+  if (box.empty()) return box;
+  box.lo.array() -= pad;
+  box.hi.array() += pad;
+  return box.intersection(Aabb{region.lo.array() - pad, region.hi.array() + pad});
+}
+
+}  // namespace
+
 Aabb clipped_tet_box(const TetCorners& t, const Aabb& region, int axis, double pad) {
   Aabb box;
   const double lo = region.lo[axis], hi = region.hi[axis];
@@ -31,10 +44,7 @@ Aabb clipped_tet_box(const TetCorners& t, const Aabb& region, int axis, double p
       box.extend(x);
     }
   }
-  if (box.empty()) return box;
-  box.lo.array() -= pad;
-  box.hi.array() += pad;
-  return box.intersection(Aabb{region.lo.array() - pad, region.hi.array() + pad});
+  return padded_in_region(box, region, pad);
 }
 
 namespace {
@@ -88,15 +98,10 @@ TC_INLINE void clipped_box_lanes(const std::array<TetCorners, 4>& t, const Aabb&
     }
   }
 #pragma GCC unroll 12
-  for (int j = 0; j < 4; ++j) {
-    Aabb box{Vector3d(blo[0][j], blo[1][j], blo[2][j]), Vector3d(bhi[0][j], bhi[1][j], bhi[2][j])};
-    if (!box.empty()) {
-      box.lo.array() -= pad[j];
-      box.hi.array() += pad[j];
-      box = box.intersection(Aabb{region.lo.array() - pad[j], region.hi.array() + pad[j]});
-    }
-    out[j] = box;
-  }
+  for (int j = 0; j < 4; ++j)
+    out[j] = padded_in_region(
+        {Vector3d(blo[0][j], blo[1][j], blo[2][j]), Vector3d(bhi[0][j], bhi[1][j], bhi[2][j])},
+        region, pad[j]);
 }
 
 }  // namespace

@@ -264,6 +264,11 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
   const Positions& positions = *positions_;
   const auto clusters = static_cast<std::size_t>(cluster_tets_.rows());
   const auto groups = static_cast<std::size_t>(group_nodes_.rows());
+  // Group g's clusters: [first, last).
+  const auto first_cluster = [](std::size_t g) { return g * kClustersPerGroup; };
+  const auto last_cluster = [&](std::size_t g) {
+    return std::min(clusters, (g + 1) * kClustersPerGroup);
+  };
   // Refits the listed clusters' boxes from the nodes their tets use, once a frame each.
   const auto refit = [&](std::span<const Index> list) {
     detail::for_chunks(list.size(), 256, [&](std::size_t begin, std::size_t end, std::size_t) {
@@ -289,8 +294,7 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
       refit(stale_clusters_);
       for (std::size_t g = 0; g < groups; ++g) {  // the same boxes, from the clusters'
         Aabb b;
-        const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
-        for (std::size_t c = g * kClustersPerGroup; c < last; ++c) b.extend(tet_boxes_[c]);
+        for (std::size_t c = first_cluster(g); c < last_cluster(g); ++c) b.extend(tet_boxes_[c]);
         group_boxes_[g] = b;
       }
     }
@@ -304,8 +308,7 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
   for (std::size_t g = 0; g < groups; ++g) {
     if (!group_met(g)) continue;
     ++groups_met_;
-    const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
-    for (std::size_t c = g * kClustersPerGroup; c < last; ++c)
+    for (std::size_t c = first_cluster(g); c < last_cluster(g); ++c)
       if (cluster_frame_[c] != frame_) stale_clusters_.push_back(static_cast<Index>(c));
   }
   refit(stale_clusters_);
@@ -315,8 +318,7 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
   detail::SortedIndexSet set(near_bits_, tets_.size());
   for (std::size_t g = 0; g < groups; ++g) {
     if (!group_met(g)) continue;
-    const std::size_t last = std::min(clusters, (g + 1) * kClustersPerGroup);
-    for (std::size_t c = g * kClustersPerGroup; c < last; ++c)
+    for (std::size_t c = first_cluster(g); c < last_cluster(g); ++c)
       if (tet_boxes_[c].overlaps(region))
         for (const Index t : cluster_tets_.row(static_cast<Index>(c))) set.insert(t);
   }
@@ -654,9 +656,8 @@ namespace {
 struct VisitMarks {
   std::vector<std::uint64_t> mark;
   std::uint64_t now = 0;
-  // intruding_edges, one edge at a time, reused: the tets whose box the edge meets (slot
-  // and clip target) and their clips.
-  std::vector<Index> clip_slots;
+  // intruding_edges, one edge at a time, reused: the tets whose box the edge meets (their
+  // geometry slot is target.tet - geom) and their clips.
   std::vector<ClipTarget> clip_targets;
   std::vector<SegmentClip> clips;
   std::vector<detail::EdgeHit> hits;
@@ -767,7 +768,6 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
           // Local pointers: a vector's growth is a call, after which the compiler would
           // otherwise reload the marks and rows through the thread-local on every visit.
           std::uint64_t* const mark = marks.mark.data();
-          marks.clip_slots.clear();
           marks.clip_targets.clear();
           // Every tet of Y overlapped by a marked tet of X around the edge, once (an edge has
           // ~15 such visits here for ~9 distinct tets, ~5.5 clipped, ~1.8 hit).
@@ -782,7 +782,6 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
               const TetBox& box = boxes[slot];
               const double tol = rel * std::max(box.scale, length);
               if (!meets_padded_box(lo, hi, box.lo, box.hi, tol)) continue;
-              marks.clip_slots.push_back(slot);
               marks.clip_targets.push_back({&geom[slot], tol});
             }
           }
@@ -793,9 +792,10 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
           hits.clear();
           for (std::size_t j = 0; j < n; ++j) {
             const SegmentClip& clip = marks.clips[j];
+            const ClipTarget& target = marks.clip_targets[j];
             if (clip.hit)
-              hits.push_back({{edge, gy.tets[marks.clip_slots[j]], clip.lambda_in, clip.lambda_out},
-                              marks.clip_targets[j].tolerance / length});
+              hits.push_back({{edge, gy.tets[target.tet - geom], clip.lambda_in, clip.lambda_out},
+                              target.tolerance / length});
           }
           if (hits.empty()) continue;
           if (hits.size() > 1)

@@ -35,13 +35,14 @@ inline TetCorners tet_corners(const Positions& positions, const Tet& tet) {
 struct TetGeometry {
   // Ordered by use, so that what a test reads is contiguous: the box (every pre-test);
   // what the face-plane tests read (lengths, normals by coordinate, inverses, corners);
-  // the rest of the vectorised overlap test (arcs, edges; the unit normals are formed from n and
-  // n_inv where used). Vectors are kept by coordinate only (x, y, z apart; index = face k, corner i
-  // or edge j): they feed the vector lanes of tets_overlap() and clip_segment_tet(), and the scalar
-  // reference functions read them back through normal(), edge() and arc(), so both see the same
-  // bits. Nothing is stored twice: a tet's geometry is written once a frame and read by
-  // every thread that tests a pair with it, and each cache line of it that moves between
-  // cores costs 30-160 ns here (docs/BENCHMARKS.md, Detection -> "Step 7").
+  // the rest of the vectorised overlap test (arcs, edges; the unit normals are formed
+  // from n and n_inv where they are used). Vectors are kept by coordinate only (x, y, z
+  // apart; index = face k, corner i or edge j): they feed the vector lanes of
+  // tets_overlap() and clip_segment_tet(), and the scalar reference functions read them
+  // back through normal(), edge() and arc(), so both see the same bits. Nothing is
+  // stored twice: a tet's geometry is written once a frame and read by every thread that
+  // tests a pair with it, and each cache line of it that moves between cores costs
+  // 30-160 ns here (docs/BENCHMARKS.md, Detection -> "Step 7").
   Eigen::Vector3d lo, hi;            ///< bounding box, m
   double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
