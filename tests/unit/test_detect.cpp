@@ -9,6 +9,9 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
 #include <set>
 #include <tuple>
@@ -724,6 +727,42 @@ TEST(CollisionBody, RejectsMismatchedInput) {
   body.set_positions(m.positions);
   EXPECT_EQ(body.box().lo, Vector3d::Zero());
   EXPECT_EQ(body.box().hi, Vector3d::Ones());
+}
+
+// The body's box is that of its finite nodes, with the bits of Aabb::extend over them in
+// node order: a node with one NaN or infinite coordinate is left out whole (its finite
+// coordinates too), and a tie between -0 and +0 keeps the first. Also over more nodes
+// than one chunk of the parallel pass.
+TEST(CollisionBody, BoxIsTheBoxOfTheFiniteNodesBitForBit) {
+  const TetMesh m = test::structured_box(24, 24, 20, Vector3d(0, 0, 0), Vector3d(1, 1, 1));
+  const Topology t = build_topology(m.tets, m.num_nodes());
+  ASSERT_GT(m.num_nodes(), 8192);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<Positions> states;
+  Positions p = m.positions;
+  p.col(0) = Vector3d(-0.0, -0.0, -0.0);  // before the +0 corners of the other nodes
+  states.push_back(p);
+  p.col(7) = Vector3d(nan, -5.0, 7.0);  // only x is bad: y and z would widen the box
+  p.col(9000) = Vector3d(3.0, inf, 0.5);
+  p.col(12) = Vector3d(-2.0, 0.5, -inf);
+  states.push_back(p);
+  p.col(5) = Vector3d(-1.0, 2.0, 3.0);  // and the finite extremes still count
+  states.push_back(p);
+  CollisionBody body(m.tets, t);
+  for (std::size_t s = 0; s < states.size(); ++s) {
+    SCOPED_TRACE(s);
+    Aabb want;
+    for (Eigen::Index i = 0; i < states[s].cols(); ++i)
+      if (states[s].col(i).allFinite()) want.extend(Vector3d(states[s].col(i)));
+    body.set_positions(states[s]);
+    const Aabb& got = body.box();
+    EXPECT_EQ(std::memcmp(got.lo.data(), want.lo.data(), sizeof(double) * 3), 0) << got.lo;
+    EXPECT_EQ(std::memcmp(got.hi.data(), want.hi.data(), sizeof(double) * 3), 0) << got.hi;
+  }
+  EXPECT_TRUE(std::signbit(body.box().lo.y()));  // -0 came first
+  EXPECT_EQ(body.box().lo, Vector3d(-1.0, -0.0, -0.0));
+  EXPECT_EQ(body.box().hi, Vector3d(1.0, 2.0, 3.0));
 }
 
 TEST(TouchingObjectPairs, BoxesAndEnableFlag) {
