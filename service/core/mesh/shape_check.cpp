@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -28,6 +29,9 @@ constexpr std::size_t kSampleStride = 16;
 
 /// More than one node in this many moved: check every tet (a rotation, a large step).
 constexpr std::size_t kBusyFraction = 4;
+
+/// Nodes per call of detail::moved_mask().
+constexpr std::size_t kMotionLanes = 8;
 
 }  // namespace
 
@@ -103,6 +107,26 @@ void motion_radii(const double* x, const Tet* tets, double quality, double* out)
                       root432 * v6 >= s * c0;
     out[l] = good ? best : -1.0;
   }
+}
+
+/// Bit l set when node l of the kMotionLanes nodes at x (3 coordinates each; reference
+/// positions r, squared radii r2) moved beyond its radius once `shift` is removed: the
+/// test ShapeCheck::check makes one node at a time, with the same operations in the same
+/// order in every lane and copy (plain lane loops the compiler vectorises), so the same
+/// answer. A NaN distance is beyond.
+TC_TARGET_CLONES_AVX2
+unsigned moved_mask(const double* x, const double* r, const double* r2, const double* shift) {
+  constexpr int L = static_cast<int>(kMotionLanes);
+  double d2[L];
+  for (int l = 0; l < L; ++l) {
+    const double dx = x[3 * l] - r[3 * l] - shift[0];
+    const double dy = x[3 * l + 1] - r[3 * l + 1] - shift[1];
+    const double dz = x[3 * l + 2] - r[3 * l + 2] - shift[2];
+    d2[l] = dx * dx + dy * dy + dz * dz;
+  }
+  unsigned mask = 0;
+  for (int l = 0; l < L; ++l) mask |= (d2[l] <= r2[l] ? 0u : 1u) << l;
+  return mask;
 }
 
 }  // namespace detail
@@ -224,8 +248,15 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     if (kBusyFraction * moved > samples) return busy();
   }
   moved_.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (beyond(i)) moved_.push_back(static_cast<Index>(i));
+  {
+    std::size_t k = 0;
+    for (; k + kMotionLanes <= n; k += kMotionLanes)  // in order: moved_ stays sorted
+      for (unsigned m = detail::moved_mask(x + 3 * k, r + 3 * k, radius2_.data() + k, shift);
+           m != 0; m &= m - 1)
+        moved_.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(m))));
+    for (; k < n; ++k)
+      if (beyond(k)) moved_.push_back(static_cast<Index>(k));
+  }
   last_.moved_nodes = moved_.size();
   if (kBusyFraction * moved_.size() > n) return busy();
   // Every node that is not finite is beyond its radius (orphans' radius is the largest
