@@ -82,25 +82,25 @@ Aabb box_of_finite_points(const ForEachPoint& for_each_point) {
     lo_z = std::min(lo_z, z);
     hi_z = std::max(hi_z, z);
   };
+  const auto xy_of = [](const double* p) {
+    V2 xy;
+    std::memcpy(&xy, p, sizeof xy);
+    return xy;
+  };
   V2 bad = {0.0, 0.0};
   double bad_z = 0.0;
   for_each_point([&](const double* p) {
-    V2 xy;
-    std::memcpy(&xy, p, sizeof xy);
-    const double z = p[2];
+    const V2 xy = xy_of(p);
     bad += xy - xy;
-    bad_z += z - z;
-    add(xy, z);
+    bad_z += p[2] - p[2];
+    add(xy, p[2]);
   });
   if (!((bad[0] + bad[1]) + bad_z == 0.0)) {  // a coordinate was infinite or NaN
     lo = V2{kInf, kInf}, hi = V2{-kInf, -kInf};
     lo_z = kInf, hi_z = -kInf;
     for_each_point([&](const double* p) {
-      V2 xy;
-      std::memcpy(&xy, p, sizeof xy);
-      const double z = p[2];
-      const V2 d = xy - xy;
-      if ((d[0] + d[1]) + (z - z) == 0.0) add(xy, z);
+      const V2 xy = xy_of(p), d = xy - xy;
+      if ((d[0] + d[1]) + (p[2] - p[2]) == 0.0) add(xy, p[2]);
     });
   }
   return {{lo[0], lo[1], lo_z}, {hi[0], hi[1], hi_z}};

@@ -33,6 +33,17 @@ constexpr std::size_t kBusyFraction = 4;
 /// Nodes per call of detail::moved_mask().
 constexpr std::size_t kMotionLanes = 8;
 
+/// Squared motion of the node at x (3 coordinates; reference position r) once `shift` is
+/// removed. The one expression of ShapeCheck::check's motion test, node by node and in
+/// detail::moved_mask's lanes, so both give the same bits.
+[[gnu::always_inline]] inline double motion2(const double* x, const double* r,
+                                             const double* shift) {
+  const double dx = x[0] - r[0] - shift[0];
+  const double dy = x[1] - r[1] - shift[1];
+  const double dz = x[2] - r[2] - shift[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
 }  // namespace
 
 namespace detail {
@@ -111,19 +122,14 @@ void motion_radii(const double* x, const Tet* tets, double quality, double* out)
 
 /// Bit l set when node l of the kMotionLanes nodes at x (3 coordinates each; reference
 /// positions r, squared radii r2) moved beyond its radius once `shift` is removed: the
-/// test ShapeCheck::check makes one node at a time, with the same operations in the same
-/// order in every lane and copy (plain lane loops the compiler vectorises), so the same
-/// answer. A NaN distance is beyond.
+/// test ShapeCheck::check makes one node at a time (motion2), in plain lane loops the
+/// compiler vectorises (AVX2 and baseline copies, no FMA in either), so the same answer.
+/// A NaN distance is beyond.
 TC_TARGET_CLONES_AVX2
 unsigned moved_mask(const double* x, const double* r, const double* r2, const double* shift) {
   constexpr int L = static_cast<int>(kMotionLanes);
   double d2[L];
-  for (int l = 0; l < L; ++l) {
-    const double dx = x[3 * l] - r[3 * l] - shift[0];
-    const double dy = x[3 * l + 1] - r[3 * l + 1] - shift[1];
-    const double dz = x[3 * l + 2] - r[3 * l + 2] - shift[2];
-    d2[l] = dx * dx + dy * dy + dz * dz;
-  }
+  for (int l = 0; l < L; ++l) d2[l] = motion2(x + 3 * l, r + 3 * l, shift);
   unsigned mask = 0;
   for (int l = 0; l < L; ++l) mask |= (d2[l] <= r2[l] ? 0u : 1u) << l;
   return mask;
@@ -233,10 +239,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
   const auto beyond = [&](std::size_t i) {
-    const double dx = x[3 * i] - r[3 * i] - shift[0];
-    const double dy = x[3 * i + 1] - r[3 * i + 1] - shift[1];
-    const double dz = x[3 * i + 2] - r[3 * i + 2] - shift[2];
-    return !(dx * dx + dy * dy + dz * dz <= radius2_[i]);  // NaN: beyond
+    return !(motion2(x + 3 * i, r + 3 * i, shift) <= radius2_[i]);  // NaN: beyond
   };
   const auto busy = [&] {
     ++busy_streak_;
