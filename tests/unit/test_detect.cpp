@@ -8,10 +8,12 @@
 #include <tbb/task_arena.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <set>
 #include <tuple>
@@ -653,6 +655,140 @@ TEST(Detect, ClusterGroupsGiveTheNearTetsOfEveryClusterWhateverLastFrameDid) {
   // and one that looks at more than half.
   EXPECT_LT(fewest * 10, large.mesh.tets.size()) << fewest;
   EXPECT_GT(most * 2, large.mesh.tets.size()) << most;
+}
+
+// tets_near()'s promise, checked tet by tet: every tet whose box meets the region is
+// near. With node numbers in no spatial order (a mesher's, shuffled), frames that do not
+// ask (the tool away), frames at rest, a NaN and an infinite coordinate, regions of the
+// tool, small boxes and points anywhere (the corners of the object among them), asked of
+// bodies that used groups last frame or were never asked; and the contacts are those of
+// the full pass.
+TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
+  TetMesh shuffled = test::structured_box(28, 28, 8, Vector3d(0, 0, 0), Vector3d(1, 1, 0.3));
+  {
+    std::mt19937 rng(5);
+    std::vector<Index> perm(static_cast<std::size_t>(shuffled.num_nodes()));
+    std::iota(perm.begin(), perm.end(), Index{0});
+    std::shuffle(perm.begin(), perm.end(), rng);  // old node -> new node
+    Positions p(3, shuffled.num_nodes());
+    for (Index i = 0; i < shuffled.num_nodes(); ++i)
+      p.col(perm[static_cast<std::size_t>(i)]) = shuffled.positions.col(i);
+    shuffled.positions = p;
+    for (Tet& t : shuffled.tets)
+      for (Index& v : t) v = perm[static_cast<std::size_t>(v)];
+  }
+  const Object large(shuffled);
+  const TetMesh tool0 = test::ball_mesh(3, 0.07);
+  DetectOptions on, off;
+  off.cluster_cull = false;
+  CollisionBody body(large.mesh.tets, large.topo);
+  Detector with(on), without(off);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> jitter(0.0, 3e-3);  // a tenth of an edge
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Positions p = large.mesh.positions;
+  Vector3d shift = Vector3d::Zero();  // of the large object's positions, and the tool with it
+  int asked = 0;
+  // Every tet whose box meets `region` is near `of`.
+  const auto check_near = [&](CollisionBody& of, const Aabb& region) {
+    std::vector<Index> near;
+    of.tets_near(region, near);
+    const std::set<Index> near_set(near.begin(), near.end());
+    std::size_t meeting = 0;
+    for (Index t = 0; t < large.mesh.num_tets(); ++t) {
+      Aabb box;
+      bool finite = true;
+      for (const Index v : large.mesh.tets[static_cast<std::size_t>(t)]) {
+        finite = finite && p.col(v).allFinite();
+        box.extend(Vector3d(p.col(v)));
+      }
+      if (!finite || !box.overlaps(region)) continue;
+      ++meeting;
+      EXPECT_TRUE(near_set.count(t)) << "tet " << t << " meets the region but is not near";
+    }
+    return std::pair(meeting, near.size());
+  };
+  for (int frame = 0; frame < 12; ++frame) {
+    SCOPED_TRACE(frame);
+    const bool rest = frame % 4 == 3;  // the large object keeps last frame's positions
+    if (rest) {
+      body.reuse_positions();
+    } else {
+      // Moved 30 cm a frame: boxes of another frame would miss.
+      shift = Vector3d(0.3, -0.2, 0.1) * frame;
+      p = large.mesh.positions;
+      for (Eigen::Index i = 0; frame > 0 && i < p.cols(); ++i)
+        for (int c = 0; c < 3; ++c) p(c, i) += jitter(rng) + shift[c];
+      if (frame == 6) p(1, 7) = std::numeric_limits<double>::quiet_NaN();
+      if (frame == 9) p(2, 11) = std::numeric_limits<double>::infinity();
+      body.set_positions(p);
+    }
+    // Away from the object every third frame: that frame does not ask for near tets.
+    const double lift = frame % 3 == 2 ? 1.0 : 0.0;
+    const Object tool(moved(tool0, Matrix3d::Identity(),
+                            Vector3d(0.2 + 0.06 * frame, 0.7 - 0.05 * frame, 0.35 + lift) + shift));
+    CollisionBody body_tool(tool.mesh.tets, tool.topo);
+    body_tool.set_positions(tool.mesh.positions);
+    PairContacts got, want;
+    with.detect(body, body_tool, got);
+    without.detect(body, body_tool, want);
+    expect_identical(got, want);
+    if (lift > 0.0) {
+      EXPECT_TRUE(want.overlapping.empty());
+      continue;
+    }
+    ++asked;
+    EXPECT_FALSE(want.overlapping.empty());
+    const auto [meeting, near] = check_near(body, body.box().intersection(body_tool.box()));
+    EXPECT_GT(meeting, 0u);
+    EXPECT_LT(near * 8, large.mesh.tets.size()) << near;
+    // And small regions anywhere in the object (one falls between two groups' nodes),
+    // asked of two more bodies (the regions would make `body` refit every cluster next
+    // frame): one never asked before, one asked last frame for a small region.
+    CollisionBody fresh_body(large.mesh.tets, large.topo), asked_body(large.mesh.tets, large.topo);
+    fresh_body.set_positions(large.mesh.positions);  // the clusters of `body`
+    fresh_body.set_positions(p);
+    asked_body.set_positions(large.mesh.positions);
+    std::vector<Index> unused;
+    asked_body.tets_near(Aabb{Vector3d::Zero(), Vector3d::Constant(0.01)}, unused);
+    asked_body.set_positions(p);
+    // Points too: the corners of the object (a node no other group's box holds) and
+    // nodes at random.
+    std::vector<Eigen::Index> points;
+    for (const Vector3d& dir :
+         {Vector3d(1, 1, 1), Vector3d(-1, 1, 1), Vector3d(1, -1, 1), Vector3d(-1, -1, 1),
+          Vector3d(1, 1, -1), Vector3d(-1, 1, -1), Vector3d(1, -1, -1), Vector3d(-1, -1, -1)}) {
+      Eigen::Index best = 0;
+      (dir.transpose() * p.array().isFinite().select(p, 0.0).matrix()).maxCoeff(&best);
+      points.push_back(best);
+    }
+    for (int k = 0; k < 16; ++k)
+      points.push_back(static_cast<Eigen::Index>(unit(rng) * static_cast<double>(p.cols() - 1)));
+    for (CollisionBody* probe : {&fresh_body, &asked_body}) {
+      for (int k = 0; k < 32; ++k) {
+        const Vector3d size = Vector3d(0.02, 0.02, 0.01) * (1.0 + 4.0 * unit(rng));
+        const Vector3d at = shift + Vector3d(unit(rng), unit(rng), 0.3 * unit(rng));
+        check_near(*probe, Aabb{at, at + size});
+      }
+      for (const Eigen::Index v : points)
+        if (p.col(v).allFinite()) check_near(*probe, Aabb{p.col(v), p.col(v)});
+      // Every node as a point (every other frame): the finite tets around it are near (a
+      // node left out of a group's box is missed there when it is that box's extreme).
+      std::vector<Index> around;
+      for (Index v = 0; frame % 2 == 0 && v < large.mesh.num_nodes(); ++v) {
+        if (!p.col(v).allFinite()) continue;
+        probe->tets_near(Aabb{p.col(v), p.col(v)}, around);
+        for (const Index t : large.topo.node_tets.row(v)) {
+          bool finite = true;
+          for (const Index u : large.mesh.tets[static_cast<std::size_t>(t)])
+            finite = finite && p.col(u).allFinite();
+          if (finite && !std::binary_search(around.begin(), around.end(), t))
+            ADD_FAILURE() << "tet " << t << " around node " << v << " is not near it";
+        }
+      }
+    }
+  }
+  EXPECT_EQ(asked, 8);
 }
 
 // A tool creeping across a large object (1 kHz motion): the tree over the large object's
