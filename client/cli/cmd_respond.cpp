@@ -125,8 +125,12 @@ int run_respond(const RespondArgs& args) {
 
   FrameOutput output;
   std::vector<double> times, detect_ms, depth_ms, response_ms;
+  const std::vector<FrameObjectInput> sent = states;
   for (int r = 0; r < std::max(1, args.repeat); ++r) {
-    output = pipeline.run_frame(r, states);
+    // As in the daemon, the states are made for the frame and the pipeline takes their
+    // matrices (run_frame_taking): refilled here, outside the frame's time.
+    for (std::size_t i = 0; i < states.size(); ++i) states[i].positions = sent[i].positions;
+    output = pipeline.run_frame_taking(r, states);
     times.push_back(output.stats.total_ms);
     detect_ms.push_back(output.stats.broad_ms + output.stats.narrow_ms);
     depth_ms.push_back(output.stats.depth_ms);

@@ -174,7 +174,9 @@ void SceneRunner::run_frame(FrameJob& job) {
   FrameOutput output;
   bool failed = false;
   try {
-    output = pipeline_.run_frame(job.frame, job.states);
+    // The job's states were made for this frame: the pipeline takes their matrices
+    // rather than copying them (only the object names are read below).
+    output = pipeline_.run_frame_taking(job.frame, job.states);
   } catch (const std::exception& e) {
     failed = true;
     output = FrameOutput{};

@@ -392,6 +392,61 @@ TEST(Pipeline, ObjectsAtRestGiveWhatFreshStatesGive) {
   }
 }
 
+// run_frame_taking swaps the states' matrices in rather than copying them: over frames
+// with moving objects, velocities, a static object, an object without a state and a
+// rejected state, it gives what run_frame gives, bit for bit; each accepted state then
+// holds the matrices its object had, and a rejected one keeps its own.
+TEST(Pipeline, TakingTheStatesGivesWhatCopyingGives) {
+  ObjectParams fixed, moving;
+  fixed.is_static = true;
+  moving.damping = 1e3;
+  const TetMesh floor = box_at(0.0, 5);
+  const TetMesh block = test::structured_box(3, 3, 3, {0.1, 0.1, 0.95}, {0.6, 0.6, 1.4});
+  const TetMesh ball0 = test::ball_mesh(3, 0.15);
+  Pipeline copying, taking;
+  for (Pipeline* p : {&copying, &taking}) {
+    ASSERT_TRUE(p->set_topology("floor", 0, floor, fixed).ok());
+    ASSERT_TRUE(p->set_topology("block", 0, block, moving).ok());
+    ASSERT_TRUE(p->set_topology("ball", 0, ball0, moving).ok());
+  }
+  Positions last_ball;  // the ball's last accepted positions
+  for (int frame = 0; frame < 6; ++frame) {
+    SCOPED_TRACE(frame);
+    TetMesh ball = ball0;
+    ball.positions.colwise() += Eigen::Vector3d(0.4 + 0.05 * frame, 0.5, 1.05 - 0.01 * frame);
+    std::vector<FrameObjectInput> states = {state_of("ball", ball)};
+    states[0].velocities = Positions::Constant(3, ball.num_nodes(), -0.1 * frame);
+    if (frame % 2 == 0) states.push_back(state_of("block", block));  // else at rest
+    if (frame == 3) {  // the ball's state is rejected (a NaN): last frame's stays
+      states[0].positions(1, 4) = std::numeric_limits<double>::quiet_NaN();
+      states[0].velocities.resize(3, 0);
+    }
+    const std::vector<FrameObjectInput> sent = states;
+    const FrameOutput want = copying.run_frame(frame, states);
+    const FrameOutput got = taking.run_frame_taking(frame, states);
+    ASSERT_EQ(got.errors.size(), want.errors.size());
+    EXPECT_EQ(got.errors.size(), frame == 3 ? 1u : 0u);
+    EXPECT_GT(want.stats.overlapping_pairs, 0u);
+    EXPECT_EQ(got.stats.candidate_pairs, want.stats.candidate_pairs);
+    ASSERT_EQ(got.forces.size(), want.forces.size());
+    for (std::size_t o = 0; o < got.forces.size(); ++o) {
+      EXPECT_EQ(got.forces[o].object, want.forces[o].object);
+      EXPECT_EQ(got.forces[o].nodes, want.forces[o].nodes);
+      EXPECT_EQ(got.forces[o].forces, want.forces[o].forces);
+      EXPECT_EQ(got.forces[o].stiffness, want.forces[o].stiffness);
+    }
+    // A rejected state keeps its matrices; an accepted one got its object's old ones.
+    if (frame == 3) {
+      EXPECT_TRUE(states[0].positions.hasNaN());
+    } else {
+      if (frame > 0) {
+        EXPECT_EQ(states[0].positions, last_ball);
+      }
+      last_ball = sent[0].positions;
+    }
+  }
+}
+
 TEST(Pipeline, UnknownObjectsCanBeRemoved) {
   Pipeline pipeline;
   ASSERT_TRUE(pipeline.set_topology("a", 0, box_at(0.0), {}).ok());

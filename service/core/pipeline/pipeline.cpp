@@ -233,6 +233,15 @@ bool Pipeline::has_object(const std::string& object) const {
 }
 
 FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectInput> states) {
+  return run_frame(frame, states, {});
+}
+
+FrameOutput Pipeline::run_frame_taking(std::int64_t frame, std::span<FrameObjectInput> states) {
+  return run_frame(frame, states, states);
+}
+
+FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectInput> states,
+                                std::span<FrameObjectInput> take) {
   const auto frame_start = Clock::now();
   FrameOutput out;
   out.frame = frame;
@@ -241,7 +250,8 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   // 1. States: checked object by object; a bad one is rejected, the rest run. Velocities
   //    hold for the frame they came with: an object without a state counts as at rest.
   for (auto& [name, obj] : objects) obj->velocities.resize(3, 0);
-  for (const FrameObjectInput& state : states) {
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const FrameObjectInput& state = states[k];
     const auto it = objects.find(state.object);
     const std::string who = "object '" + state.object + "' frame " + std::to_string(frame);
     if (it == objects.end()) {
@@ -284,8 +294,13 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     }
     if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
       obj.static_depth_ready = false;  // a "static" object moved: recompute once
-    obj.positions = state.positions;
-    obj.velocities = state.velocities;
+    if (take.empty()) {
+      obj.positions = state.positions;
+      obj.velocities = state.velocities;
+    } else {  // the same states: swapped in, the state gets the object's old matrices
+      obj.positions.swap(take[k].positions);
+      obj.velocities.swap(take[k].velocities);
+    }
     obj.has_state = true;
     obj.moved = true;
   }

@@ -149,6 +149,13 @@ class Pipeline {
   /// rejected into FrameOutput::errors; the rest of the frame runs.
   FrameOutput run_frame(std::int64_t frame, std::span<const FrameObjectInput> states);
 
+  /// run_frame(), taking each accepted state's positions and velocities instead of
+  /// copying them: they are swapped with the matrices the object held, which the state
+  /// then holds (a rejected state keeps its own). The same output, bit for bit; saves a
+  /// copy of every new state (for a caller that made the states for this frame, as the
+  /// daemon does from its samples).
+  FrameOutput run_frame_taking(std::int64_t frame, std::span<FrameObjectInput> states);
+
   /// The exact reference for an audit: the distance from each contact's node, at the
   /// positions of the last frame, to the boundary of the object it penetrates (a BVH
   /// over that object's boundary triangles), metres.
@@ -158,6 +165,10 @@ class Pipeline {
 
  private:
   struct Impl;
+  /// run_frame() on `states`; `take` is empty or the same states, whose matrices are
+  /// then swapped in rather than copied.
+  FrameOutput run_frame(std::int64_t frame, std::span<const FrameObjectInput> states,
+                        std::span<FrameObjectInput> take);
   std::unique_ptr<Impl> impl_;
 };
 
