@@ -684,9 +684,9 @@ TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
   CollisionBody body(large.mesh.tets, large.topo);
   Detector with(on), without(off);
   std::mt19937 rng(9);
-  std::normal_distribution<double> jitter(0.0, 3e-3);  // a tenth of an edge
+  std::normal_distribution<double> jitter(0.0, 5e-4);  // a seventieth of an edge
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  Positions p = large.mesh.positions;
+  Positions p = large.mesh.positions, prev = p;
   Vector3d shift = Vector3d::Zero();  // of the large object's positions, and the tool with it
   int asked = 0;
   // This frame's box of each tet (empty for a tet with a non-finite corner).
@@ -721,11 +721,18 @@ TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
     if (rest) {
       body.reuse_positions();
     } else {
-      // Moved 30 cm a frame: boxes of another frame would miss.
-      shift = Vector3d(0.3, -0.2, 0.1) * frame;
+      // Moved by 30 cm at frames 4 and 8 (every node far from where it was); between,
+      // jittered by less than the reach of a reference and bulged 3 cm out in a moving
+      // spot (a few nodes far from where they were, outside their group's last box).
+      shift = Vector3d(0.3, -0.2, 0.1) * static_cast<double>(frame / 4);
+      prev = p;
       p = large.mesh.positions;
-      for (Eigen::Index i = 0; frame > 0 && i < p.cols(); ++i)
+      const Vector3d bulge(0.8 - 0.02 * frame, 0.15 + 0.02 * frame, 0.0);  // away from the tool
+      for (Eigen::Index i = 0; frame > 0 && i < p.cols(); ++i) {
+        const double d = (p.col(i) - bulge).head<2>().norm();
+        if (d < 0.12) p(2, i) += 0.03 * (1.0 - d / 0.12);
         for (int c = 0; c < 3; ++c) p(c, i) += jitter(rng) + shift[c];
+      }
       if (frame == 6) p(1, 7) = std::numeric_limits<double>::quiet_NaN();
       if (frame == 9) p(2, 11) = std::numeric_limits<double>::infinity();
       body.set_positions(p);
@@ -756,7 +763,7 @@ TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
     CollisionBody fresh_body(large.mesh.tets, large.topo), asked_body(large.mesh.tets, large.topo);
     fresh_body.set_positions(large.mesh.positions);  // the clusters of `body`
     fresh_body.set_positions(p);
-    asked_body.set_positions(large.mesh.positions);
+    asked_body.set_positions(prev);  // last frame's positions: few nodes moved since
     std::vector<Index> unused;
     asked_body.tets_near(Aabb{Vector3d::Zero(), Vector3d::Constant(0.01)}, unused);
     asked_body.set_positions(p);
@@ -772,6 +779,13 @@ TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
     }
     for (int k = 0; k < 16; ++k)
       points.push_back(static_cast<Eigen::Index>(unit(rng) * static_cast<double>(p.cols() - 1)));
+    // And the 32 nodes that moved most since last frame.
+    std::vector<std::pair<double, Eigen::Index>> moved;
+    for (Eigen::Index i = 0; i < p.cols(); ++i)
+      if (p.col(i).allFinite() && prev.col(i).allFinite())
+        moved.emplace_back((p.col(i) - prev.col(i)).norm(), i);
+    std::partial_sort(moved.begin(), moved.begin() + 32, moved.end(), std::greater<>());
+    for (int k = 0; k < 32; ++k) points.push_back(moved[static_cast<std::size_t>(k)].second);
     for (CollisionBody* probe : {&fresh_body, &asked_body}) {
       for (int k = 0; k < 32; ++k) {
         const Vector3d size = Vector3d(0.02, 0.02, 0.01) * (1.0 + 4.0 * unit(rng));

@@ -3,6 +3,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -12,12 +13,34 @@
 #include <string>
 
 #include "core/common/chunked.hpp"
+#include "core/common/target_clones.hpp"
 #include "core/detect/edge_hits.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/sorted_index_set.hpp"
 #include "core/mesh/spatial_order.hpp"
 
 namespace tc {
+namespace detail {
+
+/// Nodes per call of beyond_reach_mask().
+constexpr std::size_t kReachLanes = 8;
+
+/// Bit l set when node l of the kReachLanes nodes at p (3 coordinates each; references
+/// at q) is further than r from its reference along an axis, or not finite there or at
+/// the reference: CollisionBody::compare_chunk's test of one node, in plain lane loops
+/// the compiler vectorises (AVX2 and baseline copies).
+TC_TARGET_CLONES_AVX2
+unsigned beyond_reach_mask(const double* p, const double* q, double r) {
+  constexpr int L = static_cast<int>(kReachLanes);
+  double far[3 * L];  // 1 where a coordinate is beyond reach (NaN: beyond)
+  for (int k = 0; k < 3 * L; ++k) far[k] = std::abs(p[k] - q[k]) <= r ? 0.0 : 1.0;
+  unsigned mask = 0;
+  for (int l = 0; l < L; ++l)
+    mask |= (far[3 * l] + far[3 * l + 1] + far[3 * l + 2] != 0.0 ? 1u : 0u) << l;
+  return mask;
+}
+
+}  // namespace detail
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -206,6 +229,9 @@ Aabb box_of_nodes(const Positions& positions, std::span<const Index> nodes) {
   });
 }
 
+/// Nodes per chunk of the passes over every node of a body.
+constexpr std::size_t kNodeChunk = 8192;
+
 }  // namespace
 
 void CollisionBody::build_clusters(const Positions& positions) {
@@ -248,7 +274,25 @@ void CollisionBody::build_clusters(const Positions& positions) {
     group_nodes_.indices.insert(group_nodes_.indices.end(), nodes.begin(), nodes.end());
     group_nodes_.offsets.push_back(static_cast<Index>(group_nodes_.indices.size()));
   }
-  group_boxes_.assign(static_cast<std::size_t>(group_nodes_.rows()), Aabb{});
+  const auto groups = static_cast<std::size_t>(group_nodes_.rows());
+  group_boxes_.assign(groups, Aabb{});
+  std::vector<std::pair<Index, Index>> node_group;
+  node_group.reserve(group_nodes_.indices.size());
+  for (Index g = 0; g < group_nodes_.rows(); ++g)
+    for (const Index v : group_nodes_.row(g)) node_group.emplace_back(v, g);
+  node_groups_ = csr_from_pairs(num_nodes_, node_group);
+  // How far a node may go from its reference: a quarter of the mean (finite) edge.
+  double length = 0.0;
+  std::size_t lengths = 0;
+  for (const auto& e : edges_) {
+    const double l = (positions.col(e[0]) - positions.col(e[1])).norm();
+    if (std::isfinite(l)) length += l, ++lengths;
+  }
+  reach_ = lengths > 0 ? 0.25 * length / static_cast<double>(lengths) : 0.0;
+  ref_.resize(3, 0);
+  ref_boxes_.assign(groups, Aabb{});
+  group_stamp_.assign(groups, 0);
+  motion_frame_ = 0;
   box_frame_.assign(m, 0);
   sphere_frame_.assign(m, 0);
 }
@@ -266,18 +310,26 @@ void CollisionBody::set_positions(const Positions& positions) {
     std::fill(box_frame_.begin(), box_frame_.end(), 0);
     std::fill(sphere_frame_.begin(), sphere_frame_.end(), 0);
     std::fill(cluster_frame_.begin(), cluster_frame_.end(), 0);
+    std::fill(group_stamp_.begin(), group_stamp_.end(), 0);
+    motion_frame_ = 0;
   }
+  const bool asked = near_asked_;
   decide_groups();
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
-  constexpr std::size_t kChunk = 8192;
-  const std::size_t chunks = detail::num_chunks(n, kChunk);
+  const std::size_t chunks = detail::num_chunks(n, kNodeChunk);
+  // A body whose near tets were asked by groups last frame likely is this frame too: its
+  // nodes are compared with their references here, while each chunk is in cache.
+  const bool compare = asked && use_groups_ && ref_.cols() == num_nodes_;
+  if (compare) moved_parts_.resize(chunks);
   std::vector<Aabb> part(chunks);
-  detail::for_chunks(n, kChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+  detail::for_chunks(n, kNodeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
     const double* xyz = positions.data();
     part[c] = box_of_finite_points([&](const auto& visit) {
       for (std::size_t i = begin; i < end; ++i) visit(xyz + 3 * i);
     });
+    if (compare) compare_chunk(xyz, begin, end, c);
   });
+  if (compare) motion_frame_ = frame_;
   box_ = Aabb{};
   for (const Aabb& b : part) box_.extend(b);
   if (cluster_tets_.offsets.empty()) build_clusters(positions);
@@ -323,10 +375,15 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
     // boxes (each node read about once), or, when last frame's contact met most groups,
     // every cluster box directly.
     if (use_groups_) {
-      detail::for_chunks(groups, 16, [&](std::size_t begin, std::size_t end, std::size_t) {
-        for (std::size_t g = begin; g < end; ++g)
-          group_boxes_[g] = box_of_nodes(positions, group_nodes_.row(static_cast<Index>(g)));
-      });
+      if (motion_frame_ != frame_ && ref_.cols() == num_nodes_) {  // not compared yet
+        const std::size_t n = static_cast<std::size_t>(num_nodes_);
+        moved_parts_.resize(detail::num_chunks(n, kNodeChunk));
+        detail::for_chunks(n, kNodeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+          compare_chunk(positions.data(), begin, end, c);
+        });
+        motion_frame_ = frame_;
+      }
+      finish_motion(positions);
     } else {
       stale_clusters_.resize(clusters);
       std::iota(stale_clusters_.begin(), stale_clusters_.end(), Index{0});
@@ -362,6 +419,62 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
         for (const Index t : cluster_tets_.row(static_cast<Index>(c))) set.insert(t);
   }
   set.drain(out);
+}
+
+void CollisionBody::compare_chunk(const double* xyz, std::size_t begin, std::size_t end,
+                                  std::size_t c) {
+  std::vector<Index>& moved = moved_parts_[c];
+  moved.clear();
+  const double* ref = ref_.data();
+  const double r = reach_;
+  std::size_t i = begin;
+  for (; i + detail::kReachLanes <= end; i += detail::kReachLanes)  // in order
+    for (unsigned m = detail::beyond_reach_mask(xyz + 3 * i, ref + 3 * i, r); m != 0; m &= m - 1)
+      moved.push_back(static_cast<Index>(i + static_cast<std::size_t>(std::countr_zero(m))));
+  for (; i < end; ++i) {
+    const double* p = xyz + 3 * i;
+    const double* q = ref + 3 * i;
+    // Beyond reach along an axis, or not finite now or at the reference (NaN: false).
+    if (!(std::abs(p[0] - q[0]) <= r && std::abs(p[1] - q[1]) <= r && std::abs(p[2] - q[2]) <= r))
+      moved.push_back(static_cast<Index>(i));
+  }
+}
+
+void CollisionBody::finish_motion(const Positions& positions) {
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const std::size_t groups = group_boxes_.size();
+  std::size_t moved = 0;
+  const bool made = ref_.cols() == num_nodes_ && motion_frame_ == frame_;
+  if (made)
+    for (const auto& part : moved_parts_) moved += part.size();
+  dirty_groups_.clear();
+  if (!made || 4 * moved > n) {  // first time, or most nodes moved: every group anew
+    ref_ = positions;
+    dirty_groups_.resize(groups);
+    std::iota(dirty_groups_.begin(), dirty_groups_.end(), Index{0});
+  } else {
+    for (const auto& part : moved_parts_)
+      for (const Index v : part) {
+        ref_.col(v) = positions.col(v);
+        for (const Index g : node_groups_.row(v)) {
+          auto& stamp = group_stamp_[static_cast<std::size_t>(g)];
+          if (stamp != frame_) stamp = frame_, dirty_groups_.push_back(g);
+        }
+      }
+  }
+  for (auto& part : moved_parts_) part.clear();  // moved into the references: not again
+  detail::for_chunks(
+      dirty_groups_.size(), 16, [&](std::size_t begin, std::size_t end, std::size_t) {
+        for (std::size_t k = begin; k < end; ++k) {
+          const Index g = dirty_groups_[k];
+          ref_boxes_[static_cast<std::size_t>(g)] = box_of_nodes(ref_, group_nodes_.row(g));
+        }
+      });
+  // Every node is within reach_ of its reference along each axis (those beyond were just
+  // moved into it): twice that around the reference boxes covers the rounding too.
+  const Eigen::Vector3d grow = Eigen::Vector3d::Constant(2.0 * reach_);
+  for (std::size_t g = 0; g < groups; ++g)
+    group_boxes_[g] = Aabb{ref_boxes_[g].lo - grow, ref_boxes_[g].hi + grow};
 }
 
 void CollisionBody::ensure_bounds(std::span<const Index> tets, bool spheres) {

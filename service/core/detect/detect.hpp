@@ -135,6 +135,27 @@ class CollisionBody {
   /// so only the clusters of the groups that meet it are refitted.
   Csr group_nodes_;
   std::vector<Aabb> group_boxes_;
+  /// The group boxes kept across frames. Each node has a reference position (its position
+  /// when it last moved more than reach_ along an axis) and each group the box of its
+  /// nodes' references; a group's box this frame is that box grown by 2 reach_. A frame
+  /// compares every node with its reference (one pass, in node order), moves the nodes
+  /// that went further into their references and refits only the groups around them.
+  Positions ref_;                   ///< 3 x n reference positions (empty until made)
+  std::vector<Aabb> ref_boxes_;     ///< per group: box of its nodes' finite references
+  double reach_ = 0.0;              ///< a quarter of the mean edge length at the first frame
+  Csr node_groups_;                 ///< per node: the groups whose tets use it
+  std::uint32_t motion_frame_ = 0;  ///< frame whose nodes were last compared (0: none)
+  std::vector<std::vector<Index>> moved_parts_;  ///< per chunk of nodes: those that moved
+  std::vector<std::uint32_t> group_stamp_;       ///< per group: frame it was last refitted
+  std::vector<Index> dirty_groups_;              ///< scratch
+  /// Compares the nodes with their references (chunk `c` of `chunk` nodes, from `begin`
+  /// to `end`), listing those beyond reach_ in moved_parts_[c]. Returns nothing; the
+  /// caller calls finish_motion() once every chunk is done.
+  void compare_chunk(const double* xyz, std::size_t begin, std::size_t end, std::size_t c);
+  /// Moves the listed nodes into their references and refits their groups' reference
+  /// boxes (every group when more than a quarter of the nodes moved), then this frame's
+  /// group boxes.
+  void finish_motion(const Positions& positions);
   /// Last frame's regions met fewer than half of the groups: refit the groups first, then
   /// the clusters of the groups that meet. Else (a contact spread over most of the
   /// object) every cluster is refitted directly, which reads fewer nodes, and the group
