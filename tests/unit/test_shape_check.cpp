@@ -232,6 +232,47 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   EXPECT_GT(rejected, 5u);       // and states that must be rejected
 }
 
+// The box the motion pass makes on the way (Stats::box_lo, box_hi) is the box an Aabb
+// extended node by node gets, bit for bit: the detection takes it instead of reading the
+// nodes again. Over small moves (the incremental path) of a box whose extreme
+// coordinates are zeros of both signs, in an order that changes from state to state.
+TEST(ShapeCheck, TheMotionPassesBoxIsTheNodeByNodeBoxBitForBit) {
+  Fixture f(test::structured_box(9, 8, 7, Eigen::Vector3d(-1, 0, -1), Eigen::Vector3d(0, 1, 0)));
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Positions x = f.mesh.positions;
+  f.check.check(x);
+  const Index n = f.mesh.num_nodes();
+  int boxes = 0;
+  for (int step = 0; step < 40; ++step) {
+    // A hair of motion, and the zero coordinates' signs drawn anew.
+    for (Index i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) {
+        if (x(c, i) == 0.0)
+          x(c, i) = u(rng) < 0.5 ? -0.0 : 0.0;
+        else if (step % 5 == 4)
+          x(c, i) += 1e-6 * (u(rng) - 0.5);
+      }
+    ASSERT_TRUE(f.both(x).clean());
+    if (!f.check.last().has_box) continue;
+    ++boxes;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d hi = -lo;
+    for (Index i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], x(c, i));
+        hi[c] = std::max(hi[c], x(c, i));
+      }
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(std::signbit(f.check.last().box_lo[c]), std::signbit(lo[c])) << step << " " << c;
+      EXPECT_EQ(std::signbit(f.check.last().box_hi[c]), std::signbit(hi[c])) << step << " " << c;
+    }
+    EXPECT_EQ(f.check.last().box_lo, lo);
+    EXPECT_EQ(f.check.last().box_hi, hi);
+  }
+  EXPECT_GT(boxes, 30);
+}
+
 TEST(ShapeCheck, ThreadCountChangesNothing) {
   const TetMesh mesh = test::ball_mesh(6, 1.0);
   std::vector<std::vector<std::size_t>> stats;

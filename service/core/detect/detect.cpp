@@ -298,6 +298,14 @@ void CollisionBody::build_clusters(const Positions& positions) {
 }
 
 void CollisionBody::set_positions(const Positions& positions) {
+  start_frame(positions, nullptr);
+}
+
+void CollisionBody::set_positions(const Positions& positions, const Aabb& box) {
+  start_frame(positions, &box);
+}
+
+void CollisionBody::start_frame(const Positions& positions, const Aabb* box) {
   if (positions.cols() != num_nodes_)
     throw std::invalid_argument("CollisionBody: " + std::to_string(positions.cols()) +
                                 " positions for " + std::to_string(num_nodes_) + " nodes");
@@ -321,17 +329,23 @@ void CollisionBody::set_positions(const Positions& positions) {
   // nodes are compared with their references here, while each chunk is in cache.
   const bool compare = asked && use_groups_ && ref_.cols() == num_nodes_;
   if (compare) moved_parts_.resize(chunks);
-  std::vector<Aabb> part(chunks);
-  detail::for_chunks(n, kNodeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-    const double* xyz = positions.data();
-    part[c] = box_of_finite_points([&](const auto& visit) {
-      for (std::size_t i = begin; i < end; ++i) visit(xyz + 3 * i);
+  std::vector<Aabb> part(box == nullptr ? chunks : 0);
+  if (box == nullptr || compare)
+    detail::for_chunks(n, kNodeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+      const double* xyz = positions.data();
+      if (box == nullptr)
+        part[c] = box_of_finite_points([&](const auto& visit) {
+          for (std::size_t i = begin; i < end; ++i) visit(xyz + 3 * i);
+        });
+      if (compare) compare_chunk(xyz, begin, end, c);
     });
-    if (compare) compare_chunk(xyz, begin, end, c);
-  });
   if (compare) motion_frame_ = frame_;
-  box_ = Aabb{};
-  for (const Aabb& b : part) box_.extend(b);
+  if (box != nullptr) {
+    box_ = *box;
+  } else {
+    box_ = Aabb{};
+    for (const Aabb& b : part) box_.extend(b);
+  }
   if (cluster_tets_.offsets.empty()) build_clusters(positions);
 }
 

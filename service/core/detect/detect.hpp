@@ -80,6 +80,10 @@ class CollisionBody {
   /// object box over the finite coordinates. Cost O(n); tet bounds wait for prepare().
   /// @throws std::invalid_argument when positions.cols() != n
   void set_positions(const Positions& positions);
+  /// The same, with the object box already known: `box` must be what box() would be
+  /// after set_positions(positions), bit for bit (ShapeCheck::Stats::box_lo / box_hi of a
+  /// clean state are). Saves the pass over the nodes that computes it.
+  void set_positions(const Positions& positions, const Aabb& box);
 
   /// Starts a new frame with the last frame's positions: the same matrix, unchanged
   /// since set_positions() (a static object, or one without a new state). The box,
@@ -126,6 +130,7 @@ class CollisionBody {
   /// along a Morton curve of their centroids and cut into runs of 64; each frame a
   /// cluster's box is refitted from the nodes its tets use.
   void build_clusters(const Positions& positions);
+  void start_frame(const Positions& positions, const Aabb* box);
   Csr cluster_tets_;                          ///< per cluster: its tets, sorted
   Csr cluster_nodes_;                         ///< per cluster: the nodes its tets use, sorted
   std::vector<Aabb> tet_boxes_;               ///< per cluster: box of its tets (valid when stamped)

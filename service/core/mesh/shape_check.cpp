@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -252,13 +253,34 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   }
   moved_.clear();
   {
+    // The box of the positions on the way (x and y in one two-lane vector, z apart): the
+    // nodes are in cache, and the detection then need not read them again.
+    using V2 = double __attribute__((vector_size(16)));
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    V2 lo = {kInf, kInf}, hi = {-kInf, -kInf};
+    double lo_z = kInf, hi_z = -kInf;
+    const auto extend = [&](std::size_t i) {
+      V2 xy;
+      std::memcpy(&xy, x + 3 * i, sizeof xy);
+      lo = xy < lo ? xy : lo;  // std::min(lo, xy) lane by lane
+      hi = hi < xy ? xy : hi;  // std::max(hi, xy)
+      lo_z = std::min(lo_z, x[3 * i + 2]);
+      hi_z = std::max(hi_z, x[3 * i + 2]);
+    };
     std::size_t k = 0;
-    for (; k + kMotionLanes <= n; k += kMotionLanes)  // in order: moved_ stays sorted
+    for (; k + kMotionLanes <= n; k += kMotionLanes) {  // in order: moved_ stays sorted
       for (unsigned m = detail::moved_mask(x + 3 * k, r + 3 * k, radius2_.data() + k, shift);
            m != 0; m &= m - 1)
         moved_.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(m))));
-    for (; k < n; ++k)
+      for (std::size_t l = 0; l < kMotionLanes; ++l) extend(k + l);
+    }
+    for (; k < n; ++k) {
       if (beyond(k)) moved_.push_back(static_cast<Index>(k));
+      extend(k);
+    }
+    last_.has_box = true;
+    last_.box_lo = {lo[0], lo[1], lo_z};
+    last_.box_hi = {hi[0], hi[1], hi_z};
   }
   last_.moved_nodes = moved_.size();
   if (kBusyFraction * moved_.size() > n) return busy();

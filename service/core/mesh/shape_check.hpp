@@ -56,6 +56,12 @@ class ShapeCheck {
     std::size_t checked_tets = 0;  ///< tets whose shape was computed
     bool full = false;             ///< every tet was checked
     bool rebuilt = false;          ///< the reference was rebuilt from this state
+    /// When the motion pass read every node (has_box): the box of the positions, each
+    /// node taken in order as by lo = min(lo, x), hi = max(hi, x) with std::min and
+    /// std::max, so the bits an Aabb extended node by node gets, signed zeros included.
+    /// A state whose report is clean has only finite nodes: then it is their box.
+    bool has_box = false;
+    Eigen::Vector3d box_lo = Eigen::Vector3d::Zero(), box_hi = Eigen::Vector3d::Zero();
   };
 
   /// Throws std::invalid_argument when `node_tets` does not have `num_nodes` rows.

@@ -70,6 +70,9 @@ struct SceneObject {
   /// `positions` changed since the body last read them (a state was applied, or the
   /// object is new): else the body keeps its bounds and trees (CollisionBody::reuse_positions).
   bool moved = true;
+  /// The box of `positions` when the state's shape check made it (every node read, every
+  /// node finite): the body then need not read the nodes again for it.
+  std::optional<Aabb> state_box;
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
@@ -303,6 +306,9 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     }
     obj.has_state = true;
     obj.moved = true;
+    obj.state_box.reset();
+    if (!obj.surface && obj.shape_check->last().has_box)
+      obj.state_box = Aabb{obj.shape_check->last().box_lo, obj.shape_check->last().box_hi};
   }
 
   // 2. Broad phase over objects: boxes, then the pairs that touch and are enabled.
@@ -315,7 +321,9 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       continue;
     }
     if (obj->body) {
-      if (obj->moved)
+      if (obj->moved && obj->state_box)
+        obj->body->set_positions(obj->positions, *obj->state_box);
+      else if (obj->moved)
         obj->body->set_positions(obj->positions);
       else
         obj->body->reuse_positions();  // at rest: its bounds and trees still hold
