@@ -37,6 +37,17 @@ Eigen::Vector3d total(const FrameOutput& out, const std::string& name) {
   return sum;
 }
 
+/// The same objects, nodes, forces and stiffness blocks, bit for bit.
+void expect_same_forces(const FrameOutput& got, const FrameOutput& want) {
+  ASSERT_EQ(got.forces.size(), want.forces.size());
+  for (std::size_t o = 0; o < got.forces.size(); ++o) {
+    EXPECT_EQ(got.forces[o].object, want.forces[o].object);
+    EXPECT_EQ(got.forces[o].nodes, want.forces[o].nodes);
+    EXPECT_EQ(got.forces[o].forces, want.forces[o].forces);
+    EXPECT_EQ(got.forces[o].stiffness, want.forces[o].stiffness);
+  }
+}
+
 const ObjectForces* forces_of(const FrameOutput& out, const std::string& name) {
   for (const ObjectForces& f : out.forces)
     if (f.object == name) return &f;
@@ -383,12 +394,7 @@ TEST(Pipeline, ObjectsAtRestGiveWhatFreshStatesGive) {
     EXPECT_TRUE(got.errors.empty());
     EXPECT_GT(got.stats.overlapping_pairs, 0u);
     EXPECT_EQ(got.stats.candidate_pairs, want.stats.candidate_pairs);
-    ASSERT_EQ(got.forces.size(), want.forces.size());
-    for (std::size_t o = 0; o < got.forces.size(); ++o) {
-      EXPECT_EQ(got.forces[o].object, want.forces[o].object);
-      EXPECT_EQ(got.forces[o].nodes, want.forces[o].nodes);
-      EXPECT_EQ(got.forces[o].forces, want.forces[o].forces);
-    }
+    expect_same_forces(got, want);
   }
 }
 
@@ -428,13 +434,7 @@ TEST(Pipeline, TakingTheStatesGivesWhatCopyingGives) {
     EXPECT_EQ(got.errors.size(), frame == 3 ? 1u : 0u);
     EXPECT_GT(want.stats.overlapping_pairs, 0u);
     EXPECT_EQ(got.stats.candidate_pairs, want.stats.candidate_pairs);
-    ASSERT_EQ(got.forces.size(), want.forces.size());
-    for (std::size_t o = 0; o < got.forces.size(); ++o) {
-      EXPECT_EQ(got.forces[o].object, want.forces[o].object);
-      EXPECT_EQ(got.forces[o].nodes, want.forces[o].nodes);
-      EXPECT_EQ(got.forces[o].forces, want.forces[o].forces);
-      EXPECT_EQ(got.forces[o].stiffness, want.forces[o].stiffness);
-    }
+    expect_same_forces(got, want);
     // A rejected state keeps its matrices; an accepted one got its object's old ones.
     if (frame == 3) {
       EXPECT_TRUE(states[0].positions.hasNaN());
