@@ -409,9 +409,13 @@ TEST_F(Faults, StoppedServiceBlocksNoPublisherAndKeepsNoBacklog) {
   // Bound measured on this machine: well under one 60 Hz period when nothing blocks;
   // a blocking writer would wait up to its 10 s max_blocking_time.
   EXPECT_LT(max_publish_ms_stopped, 100.0 * test::kTimeSlack);
-  // At most the frames the service had already taken in (one running, max_queued = 2
-  // waiting) are answered late; the 4 s published meanwhile are not replayed.
-  EXPECT_LE(old_after_continue, 3);
+  // Only a handful of old frames are answered late, not the ~240 published meanwhile:
+  // those the service had taken in (one running, max_queued = 2 waiting) and those whose
+  // samples were still in flight (socket buffers) when it stopped, which it reads first
+  // after SIGCONT and runs while they are the newest. That last part depends on how fast
+  // frames run against how fast the backlog drains: 2-3 on a quiet machine, 4 seen once
+  // with other tests running beside it (CI, 2026-12-05).
+  EXPECT_LE(old_after_continue, 8);
   // The objects are back: forces again, not unknown_object for ever. (The first answer to
   // a new frame may be that one: once the client wrote the topologies again, the service
   // holds the states until it has built them, instead of rejecting them.)
