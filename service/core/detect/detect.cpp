@@ -95,38 +95,24 @@ void sort_unique(std::vector<T>& v) {
 /// a node: it was kept in memory, its stores might alias the positions.)
 template <class ForEachPoint>
 Aabb box_of_finite_points(const ForEachPoint& for_each_point) {
-  using V2 = double __attribute__((vector_size(16)));
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  V2 lo = {kInf, kInf}, hi = {-kInf, -kInf};
-  double lo_z = kInf, hi_z = -kInf;
-  const auto add = [&](V2 xy, double z) {
-    lo = xy < lo ? xy : lo;  // std::min(lo, xy) lane by lane
-    hi = hi < xy ? xy : hi;  // std::max(hi, xy)
-    lo_z = std::min(lo_z, z);
-    hi_z = std::max(hi_z, z);
-  };
-  const auto xy_of = [](const double* p) {
-    V2 xy;
-    std::memcpy(&xy, p, sizeof xy);
-    return xy;
-  };
+  using V2 = PointBox::V2;
+  PointBox box;
   V2 bad = {0.0, 0.0};
   double bad_z = 0.0;
   for_each_point([&](const double* p) {
-    const V2 xy = xy_of(p);
+    const V2 xy = PointBox::xy_of(p);
     bad += xy - xy;
     bad_z += p[2] - p[2];
-    add(xy, p[2]);
+    box.add(xy, p[2]);
   });
   if (!((bad[0] + bad[1]) + bad_z == 0.0)) {  // a coordinate was infinite or NaN
-    lo = V2{kInf, kInf}, hi = V2{-kInf, -kInf};
-    lo_z = kInf, hi_z = -kInf;
+    box = PointBox{};
     for_each_point([&](const double* p) {
-      const V2 xy = xy_of(p), d = xy - xy;
-      if ((d[0] + d[1]) + (p[2] - p[2]) == 0.0) add(xy, p[2]);
+      const V2 xy = PointBox::xy_of(p), d = xy - xy;
+      if ((d[0] + d[1]) + (p[2] - p[2]) == 0.0) box.add(xy, p[2]);
     });
   }
-  return {{lo[0], lo[1], lo_z}, {hi[0], hi[1], hi_z}};
+  return {box.lo(), box.hi()};
 }
 
 /// CSR of item -> owners from a per-owner list of items.

@@ -3,7 +3,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "core/mesh/tet_mesh.hpp"
 
@@ -20,6 +23,38 @@ inline double signed_volume(const Positions& positions, const Tet& t) {
   return signed_volume(positions.col(t[0]), positions.col(t[1]), positions.col(t[2]),
                        positions.col(t[3]));
 }
+
+/// The box of points added one at a time, kept in registers (x and y in one two-lane
+/// vector, z apart): lo = std::min(lo, p) and hi = std::max(hi, p) coordinate by
+/// coordinate, so the bits an Aabb extended point by point gets (Eigen's cwiseMin /
+/// cwiseMax, operand for operand), signed zeros included. A NaN coordinate compares false
+/// and leaves that coordinate of the box as it was. The node passes of the shape check and
+/// of the detection's boxes run on it.
+class PointBox {
+ public:
+  using V2 = double __attribute__((vector_size(16)));
+
+  /// x and y of the point at p.
+  static V2 xy_of(const double* p) {
+    V2 xy;
+    std::memcpy(&xy, p, sizeof xy);
+    return xy;
+  }
+  void add(V2 xy, double z) {
+    lo_ = xy < lo_ ? xy : lo_;  // std::min(lo, xy) lane by lane
+    hi_ = hi_ < xy ? xy : hi_;  // std::max(hi, xy)
+    lo_z_ = std::min(lo_z_, z);
+    hi_z_ = std::max(hi_z_, z);
+  }
+  void add(const double* p) { add(xy_of(p), p[2]); }
+  [[nodiscard]] Eigen::Vector3d lo() const { return {lo_[0], lo_[1], lo_z_}; }
+  [[nodiscard]] Eigen::Vector3d hi() const { return {hi_[0], hi_[1], hi_z_}; }
+
+ private:
+  static constexpr double kInf = std::numeric_limits<double>::infinity();
+  V2 lo_ = {kInf, kInf}, hi_ = {-kInf, -kInf};
+  double lo_z_ = kInf, hi_z_ = -kInf;
+};
 
 /// Mean squared length of the six edges of a tet.
 inline double mean_squared_edge_length(const Positions& p, const Tet& t) {

@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
 #include "core/common/parallel_chunks.hpp"
 #include "core/common/target_clones.hpp"
+#include "core/mesh/geometry.hpp"
 #include "core/mesh/sorted_index_set.hpp"
 
 namespace tc {
@@ -253,20 +253,10 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   }
   moved_.clear();
   {
-    // The box of the positions on the way (x and y in one two-lane vector, z apart): the
-    // nodes are in cache, and the detection then need not read them again.
-    using V2 = double __attribute__((vector_size(16)));
-    constexpr double kInf = std::numeric_limits<double>::infinity();
-    V2 lo = {kInf, kInf}, hi = {-kInf, -kInf};
-    double lo_z = kInf, hi_z = -kInf;
-    const auto extend = [&](std::size_t i) {
-      V2 xy;
-      std::memcpy(&xy, x + 3 * i, sizeof xy);
-      lo = xy < lo ? xy : lo;  // std::min(lo, xy) lane by lane
-      hi = hi < xy ? xy : hi;  // std::max(hi, xy)
-      lo_z = std::min(lo_z, x[3 * i + 2]);
-      hi_z = std::max(hi_z, x[3 * i + 2]);
-    };
+    // The box of the positions on the way: the nodes are in cache, and the detection
+    // then need not read them again.
+    PointBox box;
+    const auto extend = [&](std::size_t i) { box.add(x + 3 * i); };
     std::size_t k = 0;
     for (; k + kMotionLanes <= n; k += kMotionLanes) {  // in order: moved_ stays sorted
       for (unsigned m = detail::moved_mask(x + 3 * k, r + 3 * k, radius2_.data() + k, shift);
@@ -279,8 +269,8 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
       extend(k);
     }
     last_.has_box = true;
-    last_.box_lo = {lo[0], lo[1], lo_z};
-    last_.box_hi = {hi[0], hi[1], hi_z};
+    last_.box_lo = box.lo();
+    last_.box_hi = box.hi();
   }
   last_.moved_nodes = moved_.size();
   if (kBusyFraction * moved_.size() > n) return busy();
