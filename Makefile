@@ -133,10 +133,10 @@ soak: build
 	tests/integration/run_isolated.sh $(BUILD_DIR)/bin/service_load --soak --daemon $(BUILD_DIR)/bin/tetcollided
 
 format:
-	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
+	git ls-files '*.cpp' '*.hpp' 'service/*.inc' | xargs clang-format -i
 
 format-check:
-	git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
+	git ls-files '*.cpp' '*.hpp' 'service/*.inc' | xargs clang-format --dry-run -Werror
 
 clean:
 	rm -rf $(BUILD_DIR)

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -518,14 +519,30 @@ class VectorisedOverlap : public ::testing::Test {
       const TetGeometry ga = make_tet_geometry(transform(a, scale, o));
       const TetGeometry gb = make_tet_geometry(transform(b, scale, o));
       const double s = pair_scale(ga, gb);
-      for (const double tol : {0.0, kTol * s, 1e-3 * s, -1.0}) {
-        const bool want = tets_overlap_reference(ga, gb, tol);
-        ASSERT_EQ(tets_overlap(ga, gb, tol), want)
-            << "check " << checked_ << " scale " << scale << " offset " << offset << " tol " << tol;
-        ASSERT_EQ(tets_overlap(gb, ga, tol), tets_overlap_reference(gb, ga, tol))
-            << "check " << checked_ << " (swapped) scale " << scale << " offset " << offset;
-        overlapping_ += want ? 1 : 0;
+      // Both copies of the vectorised test: the one this CPU runs, then the x86-64 baseline.
+      for (const bool baseline : {false, true}) {
+        detail::use_baseline_kernels(baseline);
+        for (const double tol : {0.0, kTol * s, 1e-3 * s, -1.0}) {
+          const bool want = tets_overlap_reference(ga, gb, tol);
+          ASSERT_EQ(tets_overlap(ga, gb, tol), want)
+              << "check " << checked_ << " scale " << scale << " offset " << offset << " tol "
+              << tol << " baseline " << baseline;
+          ASSERT_EQ(tets_overlap(gb, ga, tol), tets_overlap_reference(gb, ga, tol))
+              << "check " << checked_ << " (swapped) scale " << scale << " offset " << offset
+              << " baseline " << baseline;
+          if (!baseline) overlapping_ += want ? 1 : 0;
+        }
+        // The narrow phase's batch: tolerance relative to each pair's scale, as detection.
+        const std::array<GeometryPair, 2> pairs = {GeometryPair{&ga, &gb}, GeometryPair{&gb, &ga}};
+        std::array<bool, 2> hits = {!tets_overlap_reference(ga, gb, kTol * s),
+                                    !tets_overlap_reference(gb, ga, kTol * s)};
+        tets_overlap_pairs(pairs, kTol, hits);
+        ASSERT_EQ(hits[0], tets_overlap_reference(ga, gb, kTol * s))
+            << "check " << checked_ << " batch, baseline " << baseline;
+        ASSERT_EQ(hits[1], tets_overlap_reference(gb, ga, kTol * s))
+            << "check " << checked_ << " batch (swapped), baseline " << baseline;
       }
+      detail::use_baseline_kernels(false);
     }
     ++checked_;
   }

@@ -55,17 +55,6 @@ constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
 /// Frames a local tree over the same tets is refitted before it is built again.
 constexpr int kLocalTreeRefits = 32;
-/// How many candidate pairs ahead the narrow phase asks for B's tet geometry: the pairs
-/// come sorted by A's tet, so B's tets are scattered, and the first read of each one
-/// otherwise waits for memory.
-constexpr std::size_t kPrefetchPairs = 4;
-
-/// Asks for the first 6 cache lines of a tet's geometry: what the exact test reads first
-/// (box, face normal lengths and normals, inverse lengths, corners).
-inline void prefetch_geometry(const TetGeometry& g) {
-  const char* p = reinterpret_cast<const char*>(&g);
-  for (std::size_t off = 0; off < 384; off += 64) __builtin_prefetch(p + off);
-}
 
 template <typename T>
 void sort_values(std::vector<T>& v) {
@@ -709,14 +698,16 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     detail::reset_parts(pair_parts_, chunks);
     detail::for_chunks(
         candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-          for (std::size_t i = begin; i < end; ++i) {
-            if (i + kPrefetchPairs < end)
-              prefetch_geometry(geom_b_.geom[geom_b_.slot[candidates_[i + kPrefetchPairs].tet_b]]);
-            const TetPair& p = candidates_[i];
-            const TetGeometry& ga = geom_a_.geom[geom_a_.slot[p.tet_a]];
-            const TetGeometry& gb = geom_b_.geom[geom_b_.slot[p.tet_b]];
-            if (tets_overlap(ga, gb, rel * pair_scale(ga, gb))) pair_parts_[c].push_back(p);
+          std::array<GeometryPair, kNarrowChunk> pairs;
+          std::array<bool, kNarrowChunk> hits;
+          const std::size_t n = end - begin;
+          for (std::size_t i = 0; i < n; ++i) {
+            const TetPair& p = candidates_[begin + i];
+            pairs[i] = {&geom_a_.geom[geom_a_.slot[p.tet_a]], &geom_b_.geom[geom_b_.slot[p.tet_b]]};
           }
+          tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
+          for (std::size_t i = 0; i < n; ++i)
+            if (hits[i]) pair_parts_[c].push_back(candidates_[begin + i]);
         });
     detail::concat_parts(pair_parts_, chunks, out.overlapping);
   }

@@ -1,8 +1,10 @@
 #include "core/detect/tet_overlap.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -194,163 +196,6 @@ class Sat {
   bool accepted_ = false;
 };
 
-/// tets_overlap(): Sat<true>::run() for two non-flat tets, 4 axes at a time.
-///
-/// Why the answer is the reference's, bit for bit: Sat<true> returns false at the first
-/// axis with !(pen > tol |u|) and true at the first "deep" corner; so its answer is fixed
-/// by, in this order: any coordinate axis separates -> false; any face axis of the first
-/// tet separates -> false; a corner of the other tet deep in it -> true; the same for the
-/// second tet's faces; any Gauss-map-crossing edge axis separates -> false; else true.
-/// The order of the axes inside one of these groups does not matter (only "any"). Each
-/// lane below evaluates one axis with the reference's operations in the reference's order
-/// (no FMA: x86-64 baseline has none and the file is built with -ffp-contract=off), so
-/// each pen, tol |u| and projection has the reference's bits; min/max keep std::min/max's
-/// operand order. The precomputed SoA fields (make_tet_geometry) are the same expressions
-/// Sat evaluates per pair. The arc test uses the exact identity
-///   (s s' > 0 and |s|, |s'| > eps) <=> (s > eps and s' > eps) or (s < -eps and s' < -eps)
-/// (|s s'| > eps^2 cannot underflow and neither factor is 0 or NaN), likewise for s s' < 0.
-class FastSat {
-  // The lane shuffles below are written for these tables.
-  static_assert(kTetFaces[0][0] == 1 && kTetFaces[1][0] == 0 && kTetFaces[2][0] == 0 &&
-                kTetFaces[3][0] == 0);
-  static_assert(kEdgeFaces[0][0] == 2 && kEdgeFaces[1][0] == 1 && kEdgeFaces[2][0] == 1 &&
-                kEdgeFaces[3][0] == 0 && kEdgeFaces[4][0] == 0 && kEdgeFaces[5][0] == 0);
-  static_assert(kEdgeFaces[0][1] == 3 && kEdgeFaces[1][1] == 3 && kEdgeFaces[2][1] == 2 &&
-                kEdgeFaces[3][1] == 3 && kEdgeFaces[4][1] == 2 && kEdgeFaces[5][1] == 1);
-
- public:
-  TC_INLINE FastSat(const TetGeometry& a, const TetGeometry& b, double tol)
-      : a_(a), b_(b), tol_(tol) {
-    // B's corners relative to A's first corner (Sat's b_), by coordinate.
-    const Vector3d& o = a.v[0];
-    for (int i = 0; i < 4; ++i) {
-      bl_[0][i] = b.v[i].x() - o.x();
-      bl_[1][i] = b.v[i].y() - o.y();
-      bl_[2][i] = b.v[i].z() - o.z();
-    }
-    bx_ = load4(bl_[0]), by_ = load4(bl_[1]), bz_ = load4(bl_[2]);
-  }
-
-  TC_INLINE bool run() {
-    for (int d = 0; d < 3; ++d)
-      if (!(std::min(a_.hi[d] - b_.lo[d], b_.hi[d] - a_.lo[d]) > tol_)) return false;
-    const bool b_first = b_.scale > a_.scale;
-    for (int pass = 0; pass < 2; ++pass) {
-      const Outcome o = (pass == 0) == b_first ? faces_of_b() : faces_of_a();
-      if (o != Outcome::kUndecided) return o == Outcome::kDeep;
-    }
-    return !edges_separate();
-  }
-
- private:
-  enum class Outcome { kUndecided, kSeparated, kDeep };
-
-  /// Sat::faces() of tet g for all 4 faces at once. plane, apex: Sat's c and opp per face
-  /// (m^3); p[i]: corner i of the other tet projected on the 4 normals (m^3).
-  [[nodiscard]] TC_INLINE Outcome faces(const TetGeometry& g, V4 plane, V4 apex,
-                                        const V4 (&p)[4]) const {
-    const V4 len = load4(g.n_len.data());
-    const M4 valid = (len > splat(0.0)) & (len < splat(kInf));
-    const V4 tl = splat(tol_) * len;
-    const V4 olo = vmin(vmin(p[0], p[1]), vmin(p[2], p[3]));
-    const V4 ohi = vmax(vmax(p[0], p[1]), vmax(p[2], p[3]));
-    const V4 pen = vmin(vmax(plane, apex) - olo, ohi - vmin(plane, apex));
-    if (lanes(valid & ~(pen > tl)) != 0) return Outcome::kSeparated;
-    if (g.flat || lanes(valid) != 15) return Outcome::kUndecided;
-    const V4 depth = plane - tl;  // outward normals: inside means below the plane
-    for (int i = 0; i < 4; ++i)
-      if (lanes(p[i] < depth) == 15) return Outcome::kDeep;
-    return Outcome::kUndecided;
-  }
-
-  /// A's faces against B's corners; A's plane and apex are per-tet (relative to v[0]).
-  [[nodiscard]] TC_INLINE Outcome faces_of_a() const {
-    const V4 nx = load4(a_.nx.data()), ny = load4(a_.ny.data()), nz = load4(a_.nz.data());
-    V4 p[4];
-    for (int i = 0; i < 4; ++i)
-      p[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
-    return faces(a_, load4(a_.plane.data()), load4(a_.apex.data()), p);
-  }
-
-  /// B's faces against A's corners; B's plane and apex from its corners relative to A's.
-  [[nodiscard]] TC_INLINE Outcome faces_of_b() const {
-    const V4 nx = load4(b_.nx.data()), ny = load4(b_.ny.data()), nz = load4(b_.nz.data());
-    V4 p[4], q[4];
-    for (int i = 0; i < 4; ++i) {
-      p[i] = vdot(nx, ny, nz, splat(a_.lx[i]), splat(a_.ly[i]), splat(a_.lz[i]));
-      q[i] = vdot(nx, ny, nz, splat(bl_[0][i]), splat(bl_[1][i]), splat(bl_[2][i]));
-    }
-    // kTetFaces[k][0] = 1, 0, 0, 0: face k's plane through corner 1 (k = 0) or 0.
-    const V4 plane = V4{q[1][0], q[0][1], q[0][2], q[0][3]};
-    const V4 apex = V4{q[0][0], q[1][1], q[2][2], q[3][3]};
-    return faces(b_, plane, apex, p);
-  }
-
-  /// Sat's edge stage: true when the cross product of an edge pair whose Gauss-map arcs
-  /// may cross separates the tets.
-  [[nodiscard]] TC_INLINE bool edges_separate() const {
-    // da[f][j] = unit normal f of A . arc j of B, lanes j = 0..3 and 4..7.
-    const V4 bxl = load4(b_.ax.data()), byl = load4(b_.ay.data()), bzl = load4(b_.az.data());
-    const V4 bxh = load4(b_.ax.data() + 4), byh = load4(b_.ay.data() + 4),
-             bzh = load4(b_.az.data() + 4);
-    V4 dl[4], dh[4];
-    // Unit normals as Sat forms them, n * (1 / |n|) per coordinate (not stored: 96 bytes
-    // more of every tet's geometry to write and move between cores, for the ~1 pair in 4
-    // that reaches this stage).
-    for (int f = 0; f < 4; ++f) {
-      const double inv = a_.n_inv[f];
-      const V4 x = splat(a_.nx[f] * inv), y = splat(a_.ny[f] * inv), z = splat(a_.nz[f] * inv);
-      dl[f] = vdot(x, y, z, bxl, byl, bzl);
-      dh[f] = vdot(x, y, z, bxh, byh, bzh);
-    }
-    const V4 binv = load4(b_.n_inv.data());
-    const V4 ux = load4(b_.nx.data()) * binv, uy = load4(b_.ny.data()) * binv,
-             uz = load4(b_.nz.data()) * binv;
-    const V4 eps = splat(kArcEps), neg = splat(-kArcEps);
-    const auto disjoint = [&](V4 s1, V4 s2, V4 s3, V4 s4) {
-      const M4 p1 = s1 > eps, n1 = s1 < neg;
-      const M4 p4 = s4 > eps, n4 = s4 < neg;
-      return (p1 & (s2 > eps)) | (n1 & (s2 < neg)) | (p4 & (s3 > eps)) | (n4 & (s3 < neg)) |
-             (p1 & n4) | (n1 & p4);
-    };
-    for (int i = 0; i < 6; ++i) {
-      // db[f][i] = unit normal f of B . arc i of A (lanes f); s1, s2 over lanes j.
-      const V4 db = vdot(splat(a_.ax[i]), splat(a_.ay[i]), splat(a_.az[i]), ux, uy, uz);
-      // kEdgeFaces[j][0] = 2 1 1 0 0 0, kEdgeFaces[j][1] = 3 3 2 3 2 1.
-      const V4 s1l = -__builtin_shufflevector(db, db, 2, 1, 1, 0);
-      const V4 s1h = -__builtin_shufflevector(db, db, 0, 0, 0, 0);
-      const V4 s2l = -__builtin_shufflevector(db, db, 3, 3, 2, 3);
-      const V4 s2h = -__builtin_shufflevector(db, db, 2, 1, 1, 1);
-      const int f3 = kEdgeFaces[i][0], f4 = kEdgeFaces[i][1];
-      unsigned crossing = ~lanes(disjoint(s1l, s2l, dl[f3], dl[f4])) & 15;
-      crossing |= (~lanes(disjoint(s1h, s2h, dh[f3], dh[f4])) & 3) << 4;
-      for (; crossing != 0; crossing &= crossing - 1)
-        if (separates(cross3(a_.edge(i), b_.edge(std::countr_zero(crossing))))) return true;
-    }
-    return false;
-  }
-
-  /// Sat::axis() in kEarly mode: true when axis n separates.
-  [[nodiscard]] TC_INLINE bool separates(const Vector3d& n) const {
-    const double nn = dot3(n, n);
-    if (!(nn > 0.0) || !std::isfinite(nn)) return false;
-    const V4 x = splat(n.x()), y = splat(n.y()), z = splat(n.z());
-    const V4 pa = vdot(x, y, z, load4(a_.lx.data()), load4(a_.ly.data()), load4(a_.lz.data()));
-    const V4 pb = vdot(x, y, z, bx_, by_, bz_);
-    const double alo = std::min(std::min(pa[0], pa[1]), std::min(pa[2], pa[3]));
-    const double ahi = std::max(std::max(pa[0], pa[1]), std::max(pa[2], pa[3]));
-    const double blo = std::min(std::min(pb[0], pb[1]), std::min(pb[2], pb[3]));
-    const double bhi = std::max(std::max(pb[0], pb[1]), std::max(pb[2], pb[3]));
-    return !(std::min(ahi - blo, bhi - alo) > tol_ * std::sqrt(nn));
-  }
-
-  const TetGeometry& a_;
-  const TetGeometry& b_;
-  double tol_;
-  double bl_[3][4];  ///< B's corners relative to A's first corner by coordinate, m
-  V4 bx_, by_, bz_;  ///< the rows of bl_
-};
-
 // clip_segment_tet(): the 4 faces as lanes, each with the reference's operations (dot3 of n with p
 // - f, times 1/|n|, the tol snap). Why the result is the reference's bit for bit: (1) it returns
 // "no hit" as soon as one face has both ends outside, so any face order gives the same "no hit";
@@ -435,6 +280,49 @@ TC_INLINE void vcross(V4 ax, V4 ay, V4 az, V4 bx, V4 by, V4 bz, V4& cx, V4& cy, 
   cz = ax * by - ay * bx;
 }
 
+namespace baseline {
+#define TC_FAST_SAT_AVX2 0
+#include "core/detect/fast_sat.inc"
+#undef TC_FAST_SAT_AVX2
+}  // namespace baseline
+
+std::atomic<bool> g_baseline_only{false};  ///< detail::use_baseline_kernels()
+
+#if TC_HAS_AVX2_REGION
+/// True when the AVX2 copies are to run: this CPU has AVX2 (checked once) and a test did
+/// not ask for the baseline.
+bool cpu_has_avx2() {
+  static const bool has = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return has && !g_baseline_only.load(std::memory_order_relaxed);
+}
+#endif
+
+}  // namespace
+
+#if TC_HAS_AVX2_REGION
+TC_AVX2_REGION_BEGIN
+namespace {
+namespace avx2 {
+#define TC_FAST_SAT_AVX2 1
+#include "core/detect/fast_sat.inc"
+#undef TC_FAST_SAT_AVX2
+}  // namespace avx2
+}  // namespace
+TC_AVX2_REGION_END
+#endif
+
+namespace {
+
+/// FastSat(a, b, tolerance).run() of the copy this CPU runs.
+bool overlap_fast(const TetGeometry& a, const TetGeometry& b, double tolerance) {
+#if TC_HAS_AVX2_REGION
+  if (cpu_has_avx2()) return avx2::overlap(a, b, tolerance);
+#endif
+  return baseline::overlap(a, b, tolerance);
+}
 }  // namespace
 
 TetGeometry make_tet_geometry(const TetCorners& t) {
@@ -667,11 +555,22 @@ bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double t
 
 // One copy for AVX2 and one for the x86-64 baseline, picked at load time; both give the
 // same bits (the same IEEE operations per lane, no FMA: "avx2" does not enable it).
-TC_TARGET_CLONES_AVX2 bool tets_overlap(const TetGeometry& a, const TetGeometry& b,
-                                        double tolerance) {
+bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) {
   // Flat (or non-finite) tets take the reference's every-edge-pair path.
   if (a.flat || b.flat) return tets_overlap_reference(a, b, tolerance);
-  return FastSat(a, b, std::max(tolerance, 0.0)).run();
+  return overlap_fast(a, b, std::max(tolerance, 0.0));
+}
+
+void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
+                        std::span<bool> out) {
+#if TC_HAS_AVX2_REGION
+  if (cpu_has_avx2()) return avx2::overlap_pairs(pairs, relative_tolerance, out);
+#endif
+  baseline::overlap_pairs(pairs, relative_tolerance, out);
+}
+
+void detail::use_baseline_kernels(bool on) {
+  g_baseline_only.store(on, std::memory_order_relaxed);
 }
 
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance) {

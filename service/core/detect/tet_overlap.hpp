@@ -108,6 +108,26 @@ double sat_penetration(const TetCorners& a, const TetCorners& b);
 bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance);
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance);
 
+/// One candidate pair of tets_overlap_pairs(): the geometry of its two tets.
+struct GeometryPair {
+  const TetGeometry* a = nullptr;
+  const TetGeometry* b = nullptr;
+};
+
+/// out[i] = tets_overlap(*pairs[i].a, *pairs[i].b, relative_tolerance * pair_scale(*pairs[i].a,
+/// *pairs[i].b)) for every i (out.size() >= pairs.size()), bit for bit: the narrow phase's loop
+/// over a run of candidate pairs in one call, with the test inline (no call, no register saves
+/// per pair) and the geometry of B's tets asked for a few pairs ahead.
+void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
+                        std::span<bool> out);
+
+namespace detail {
+/// Tests only: with `on`, tets_overlap() and tets_overlap_pairs() run their x86-64 baseline
+/// copy even on a CPU with AVX2, so that one machine tests both copies (they give the same
+/// bits). Default off; set it only while no other thread runs these functions.
+void use_baseline_kernels(bool on);
+}  // namespace detail
+
 /// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
 /// order documented there); kept for flat tets and as the reference in tests.
 bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double tolerance);
