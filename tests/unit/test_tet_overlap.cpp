@@ -16,6 +16,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/common/cpu_dispatch.hpp"
 #include "core/mesh/geometry.hpp"
 #include "test_meshes.hpp"
 

@@ -23,9 +23,10 @@
 // TC_AVX2_REGION_BEGIN ... TC_AVX2_REGION_END: every function defined between them is built
 // for AVX2 (GCC: #pragma GCC target; Clang: #pragma clang attribute), inline helpers
 // included, so a file can hold a second, AVX2 copy of its vector code and pick one at run
-// time (tet_overlap.cpp). Unlike target_clones, helpers defined inside the region get the
-// AVX2 forms of their operations too. Only where TC_HAS_AVX2_REGION is 1: the same places
-// as target_clones (not under TSan, where the baseline copy is picked anyway, nor off x86-64).
+// time (tet_overlap.cpp, use_avx2_kernels() in cpu_dispatch.hpp). Unlike target_clones, helpers
+// defined inside the region get the AVX2 forms of their operations too. Only where
+// TC_HAS_AVX2_REGION is 1: the same places as target_clones (not under TSan, where the baseline
+// copy is picked anyway, nor off x86-64).
 #if defined(TC_NO_TARGET_CLONES)
 #define TC_HAS_AVX2_REGION 0
 #elif defined(__clang__)

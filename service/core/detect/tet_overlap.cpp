@@ -1,7 +1,6 @@
 #include "core/detect/tet_overlap.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -9,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "core/common/cpu_dispatch.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/detect/exact_vec3.hpp"
 #include "core/detect/lanes.hpp"
@@ -286,20 +286,6 @@ namespace baseline {
 #undef TC_FAST_SAT_AVX2
 }  // namespace baseline
 
-std::atomic<bool> g_baseline_only{false};  ///< detail::use_baseline_kernels()
-
-#if TC_HAS_AVX2_REGION
-/// True when the AVX2 copies are to run: this CPU has AVX2 (checked once) and a test did
-/// not ask for the baseline.
-bool cpu_has_avx2() {
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return has && !g_baseline_only.load(std::memory_order_relaxed);
-}
-#endif
-
 }  // namespace
 
 #if TC_HAS_AVX2_REGION
@@ -319,7 +305,7 @@ namespace {
 /// FastSat(a, b, tolerance).run() of the copy this CPU runs.
 bool overlap_fast(const TetGeometry& a, const TetGeometry& b, double tolerance) {
 #if TC_HAS_AVX2_REGION
-  if (cpu_has_avx2()) return avx2::overlap(a, b, tolerance);
+  if (use_avx2_kernels()) return avx2::overlap(a, b, tolerance);
 #endif
   return baseline::overlap(a, b, tolerance);
 }
@@ -553,7 +539,7 @@ bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double t
   return sat.run();
 }
 
-// One copy for AVX2 and one for the x86-64 baseline, picked at load time; both give the
+// One copy for AVX2 and one for the x86-64 baseline (use_avx2_kernels()); both give the
 // same bits (the same IEEE operations per lane, no FMA: "avx2" does not enable it).
 bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) {
   // Flat (or non-finite) tets take the reference's every-edge-pair path.
@@ -564,13 +550,9 @@ bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) 
 void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
                         std::span<bool> out) {
 #if TC_HAS_AVX2_REGION
-  if (cpu_has_avx2()) return avx2::overlap_pairs(pairs, relative_tolerance, out);
+  if (use_avx2_kernels()) return avx2::overlap_pairs(pairs, relative_tolerance, out);
 #endif
   baseline::overlap_pairs(pairs, relative_tolerance, out);
-}
-
-void detail::use_baseline_kernels(bool on) {
-  g_baseline_only.store(on, std::memory_order_relaxed);
 }
 
 bool tets_overlap(const TetCorners& a, const TetCorners& b, double tolerance) {

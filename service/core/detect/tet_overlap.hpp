@@ -121,13 +121,6 @@ struct GeometryPair {
 void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
                         std::span<bool> out);
 
-namespace detail {
-/// Tests only: with `on`, tets_overlap() and tets_overlap_pairs() run their x86-64 baseline
-/// copy even on a CPU with AVX2, so that one machine tests both copies (they give the same
-/// bits). Default off; set it only while no other thread runs these functions.
-void use_baseline_kernels(bool on);
-}  // namespace detail
-
 /// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
 /// order documented there); kept for flat tets and as the reference in tests.
 bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double tolerance);
