@@ -483,6 +483,51 @@ TEST_P(ThreadCount, OutputIsBitIdenticalWith1To4Threads) {
 
 INSTANTIATE_TEST_SUITE_P(Detect, ThreadCount, kAllKinds, kind_name);
 
+// Each thread keeps its own copy of the tet geometry from call to call (built when it first
+// needs a tet in a call; all of it up front when one thread runs the call). One Detector over
+// frames that move the bodies, each frame on another number of threads, must give what a
+// fresh one-thread detection gives: no geometry of an earlier frame or of another thread used.
+TEST(Detect, AReusedDetectorOnChangingThreadCountsGivesWhatAFreshOneGives) {
+  std::mt19937 rng(7);
+  const Vector3d lo = Vector3d::Constant(-0.5), hi = Vector3d::Constant(0.5);
+  const Object a(
+      moved(test::structured_box(9, 9, 9, lo, hi), random_rotation(rng), Vector3d::Zero()));
+  Object b(
+      moved(test::structured_box(8, 8, 8, lo, hi), random_rotation(rng), Vector3d(0.75, 0.2, 0.1)));
+  const Positions rest_b = b.mesh.positions;
+  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
+  Detector detector;
+  const std::array<int, 7> threads = {2, 1, 3, 0, 2, 4, 1};  // 0: TBB's global limit of 1
+  for (std::size_t frame = 0; frame < threads.size(); ++frame) {
+    // B slides in, then a bulge on part of it, then back out (the set of tets changes).
+    const double depth = 0.06 * static_cast<double>(frame < 4 ? frame : 7 - frame);
+    b.mesh.positions = rest_b;
+    for (Eigen::Index i = 0; i < b.mesh.positions.cols(); ++i) {
+      b.mesh.positions(0, i) -= depth;
+      if (frame == 3 && b.mesh.positions(1, i) > 0.2) b.mesh.positions(0, i) -= 0.05;
+    }
+    ba.set_positions(a.mesh.positions);
+    bb.set_positions(b.mesh.positions);
+    PairContacts got;
+    const auto detect = [&] { detector.detect(ba, bb, got); };
+    if (threads[frame] == 0) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+      detect();
+    } else {
+      tbb::task_arena arena(threads[frame]);
+      arena.execute(detect);
+    }
+    PairContacts want;
+    {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+      want = run(a, b);
+    }
+    ASSERT_GT(want.overlapping.size(), frame == 0 ? 0u : 100u) << "frame " << frame;
+    SCOPED_TRACE("frame " + std::to_string(frame) + ", threads " + std::to_string(threads[frame]));
+    expect_identical(got, want);
+  }
+}
+
 using Frame = std::tuple<double, double>;  // scale, offset
 
 class OffsetsAndScales : public ::testing::TestWithParam<Frame> {};

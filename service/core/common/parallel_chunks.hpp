@@ -6,8 +6,10 @@
 #pragma once
 
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstddef>
@@ -17,6 +19,13 @@ namespace tc::detail {
 /// Number of chunks of size `chunk` covering n items.
 inline std::size_t num_chunks(std::size_t n, std::size_t chunk) {
   return (n + chunk - 1) / chunk;
+}
+
+/// True when loops here run on the calling thread only: the arena, or TBB's global limit,
+/// allows one thread.
+inline bool single_thread() {
+  return tbb::this_task_arena::max_concurrency() == 1 ||
+         tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) == 1;
 }
 
 /// Calls body(begin, end, chunk_index) for each fixed chunk of [0, n), in parallel.

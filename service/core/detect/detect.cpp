@@ -1,5 +1,6 @@
 #include "core/detect/detect.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -503,24 +504,110 @@ void CollisionBody::prepare(BroadPhaseKind kind) {
 
 // ----------------------------------------------------------------------------- Detector
 
-Detector::Detector(DetectOptions options) : options_(options) {}
+/// One thread's TetGeometry of the tets in candidate pairs, [0] for body A's slots and [1]
+/// for B's, built when the thread first needs a tet in a detect() call (stamp).
+struct Detector::ThreadGeometry {
+  struct Copy {
+    std::array<std::vector<TetGeometry>, 2> geom;
+    std::array<std::vector<std::uint64_t>, 2> built;  ///< per slot: the stamp it was built at
+    std::uint64_t all_built = 0;                      ///< the stamp every slot was built at
+    std::vector<Index> missing;                       ///< scratch: slots to build
+  };
+  tbb::enumerable_thread_specific<Copy> copies;
+
+  /// This thread's copy, sized for the slots of both bodies.
+  Copy& local(std::size_t slots_a, std::size_t slots_b) {
+    Copy& copy = copies.local();
+    const std::array<std::size_t, 2> slots = {slots_a, slots_b};
+    for (std::size_t w = 0; w < 2; ++w) {
+      if (copy.geom[w].size() < slots[w]) copy.geom[w].resize(slots[w]);
+      if (copy.built[w].size() < slots[w]) copy.built[w].resize(slots[w], 0);
+    }
+    return copy;
+  }
+};
+
+namespace {
+
+/// Builds the geometry of the slots slot_at(0), ..., slot_at(count - 1) (slot s: tet tets[s]
+/// of the body at positions p) into geom, 4 tets a call (make_tet_geometry4: the bits of
+/// make_tet_geometry).
+template <typename SlotAt>
+void build_slots(const Positions& p, std::span<const Tet> body_tets, std::span<const Index> tets,
+                 std::size_t count, const SlotAt& slot_at, std::vector<TetGeometry>& geom) {
+  const auto corners_of = [&](std::size_t slot) {
+    return tet_corners(p, body_tets[static_cast<std::size_t>(tets[slot])]);
+  };
+  std::size_t k = 0;
+  for (; k + 4 <= count; k += 4) {
+    std::array<TetCorners, 4> corners;
+    std::array<TetGeometry*, 4> out;
+    for (std::size_t j = 0; j < 4; ++j) {
+      const std::size_t slot = slot_at(k + j);
+      corners[j] = corners_of(slot);
+      out[j] = &geom[slot];
+    }
+    make_tet_geometry4(corners, out);
+  }
+  for (; k < count; ++k) make_tet_geometry(corners_of(slot_at(k)), geom[slot_at(k)]);
+}
+
+}  // namespace
+
+/// The calling thread's geometry of one body's slots, built on first use in this detect()
+/// call: what the intrusion scans test points and segments against.
+class Detector::GeometryOf {
+ public:
+  GeometryOf(ThreadGeometry::Copy& copy, int side, std::uint64_t stamp, const Positions& positions,
+             std::span<const Tet> body_tets, std::span<const Index> tets)
+      : geom_(copy.geom[static_cast<std::size_t>(side)]),
+        built_(copy.built[static_cast<std::size_t>(side)]),
+        stamp_(stamp),
+        all_built_(copy.all_built == stamp),
+        positions_(positions),
+        body_tets_(body_tets),
+        tets_(tets) {}
+
+  const TetGeometry& operator()(Index slot) {
+    const auto s = static_cast<std::size_t>(slot);
+    if (!all_built_ && built_[s] != stamp_) {
+      built_[s] = stamp_;
+      make_tet_geometry(tet_corners(positions_, body_tets_[static_cast<std::size_t>(tets_[s])]),
+                        geom_[s]);
+    }
+    return geom_[s];
+  }
+  /// The slot of geometry g: &g - base().
+  [[nodiscard]] const TetGeometry* base() const { return geom_.data(); }
+
+ private:
+  std::vector<TetGeometry>& geom_;
+  std::vector<std::uint64_t>& built_;
+  std::uint64_t stamp_;
+  bool all_built_;
+  const Positions& positions_;
+  std::span<const Tet> body_tets_;
+  std::span<const Index> tets_;
+};
+
+Detector::Detector(DetectOptions options)
+    : options_(options), thread_geometry_(std::make_unique<ThreadGeometry>()) {}
+Detector::~Detector() = default;
+Detector::Detector(Detector&&) noexcept = default;
+Detector& Detector::operator=(Detector&&) noexcept = default;
 
 void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
   if (g.slot.size() < body.tets_.size()) g.slot.resize(body.tets_.size(), -1);
-  g.geom.resize(g.tets.size());
   g.boxes.resize(g.tets.size());
   for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
-  const Positions& p = *body.positions_;
-  detail::for_chunks(g.tets.size(), 128, [&](std::size_t begin, std::size_t end, std::size_t) {
-    std::size_t i = begin;
-    for (; i + 4 <= end; i += 4) {  // 4 tets a call, one per vector lane (same bits)
-      std::array<TetCorners, 4> corners;
-      for (std::size_t j = 0; j < 4; ++j) corners[j] = tet_corners(p, body.tets_[g.tets[i + j]]);
-      make_tet_geometry4(corners, &g.geom[i]);
-    }
-    for (; i < end; ++i) make_tet_geometry(tet_corners(p, body.tets_[g.tets[i]]), g.geom[i]);
-    for (i = begin; i < end; ++i) g.boxes[i] = {g.geom[i].lo, g.geom[i].hi, g.geom[i].scale};
-  });
+  // The tet boxes the broad phase made this frame for every tet near the contact (every
+  // tet in a candidate pair is): the corners' min and max, empty for a non-finite corner,
+  // as in make_tet_geometry() (up to the sign of a zero, which no test below can see).
+  for (std::size_t i = 0; i < g.tets.size(); ++i) {
+    const Aabb& box = body.bounds_.boxes[static_cast<std::size_t>(g.tets[i])];
+    g.boxes[i] = box.empty() ? TetBox{box.lo, box.hi, 0.0}
+                             : TetBox{box.lo, box.hi, (box.hi - box.lo).maxCoeff()};
+  }
   g.reach = TetBox{Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()),
                    Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity()), 0.0};
   for (const TetBox& b : g.boxes) {
@@ -691,6 +778,15 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   }
   build_geometry(a, geom_a_);
   build_geometry(b, geom_b_);
+  ++geometry_stamp_;
+  if (detail::single_thread()) {
+    // Every chunk below runs on this thread: all the geometry now, in slot order.
+    auto& copy = thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size());
+    const auto same = [](std::size_t k) { return k; };
+    build_slots(*a.positions_, a.tets_, geom_a_.tets, geom_a_.tets.size(), same, copy.geom[0]);
+    build_slots(*b.positions_, b.tets_, geom_b_.tets, geom_b_.tets.size(), same, copy.geom[1]);
+    copy.all_built = geometry_stamp_;
+  }
 
   // Narrow phase: exact overlap of every candidate, in candidate order.
   {
@@ -698,12 +794,37 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     detail::reset_parts(pair_parts_, chunks);
     detail::for_chunks(
         candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+          // This thread's geometry of the chunk's tets, built now where it has not yet
+          // been in this call (A's tets come in order, B's scattered).
+          auto& copy = thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size());
+          const std::uint64_t stamp = geometry_stamp_;
+          const auto gather = [&](int w, const Geometry& g, auto tet_of) {
+            copy.missing.clear();
+            if (copy.all_built == stamp) return;
+            std::vector<std::uint64_t>& built = copy.built[static_cast<std::size_t>(w)];
+            for (std::size_t i = begin; i < end; ++i) {
+              const Index slot = g.slot[tet_of(candidates_[i])];
+              if (built[static_cast<std::size_t>(slot)] == stamp) continue;
+              built[static_cast<std::size_t>(slot)] = stamp;
+              copy.missing.push_back(slot);
+            }
+          };
+          const auto missing = [&](std::size_t k) {
+            return static_cast<std::size_t>(copy.missing[k]);
+          };
+          gather(0, geom_a_, [](const TetPair& p) { return p.tet_a; });
+          build_slots(*a.positions_, a.tets_, geom_a_.tets, copy.missing.size(), missing,
+                      copy.geom[0]);
+          gather(1, geom_b_, [](const TetPair& p) { return p.tet_b; });
+          build_slots(*b.positions_, b.tets_, geom_b_.tets, copy.missing.size(), missing,
+                      copy.geom[1]);
           std::array<GeometryPair, kNarrowChunk> pairs;
           std::array<bool, kNarrowChunk> hits;
           const std::size_t n = end - begin;
           for (std::size_t i = 0; i < n; ++i) {
             const TetPair& p = candidates_[begin + i];
-            pairs[i] = {&geom_a_.geom[geom_a_.slot[p.tet_a]], &geom_b_.geom[geom_b_.slot[p.tet_b]]};
+            pairs[i] = {&copy.geom[0][static_cast<std::size_t>(geom_a_.slot[p.tet_a])],
+                        &copy.geom[1][static_cast<std::size_t>(geom_b_.slot[p.tet_b])]};
           }
           tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
           for (std::size_t i = 0; i < n; ++i)
@@ -760,10 +881,13 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
       const Rows& rows = side == 0 ? rows_a_ : rows_b_;
       if (row_of_.size() < x.tets_.size()) row_of_.resize(x.tets_.size(), -1);
       for (std::size_t r = 0; r < marked.size(); ++r) row_of_[marked[r]] = static_cast<Index>(r);
+      const int gy_side = 1 - side;
       if (options_.intruding_nodes)
-        intruding_nodes(x, marked, rows, y, gy, side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
+        intruding_nodes(x, marked, rows, y, gy, gy_side,
+                        side == 0 ? out.nodes_a_in_b : out.nodes_b_in_a);
       if (edges[static_cast<std::size_t>(side)])
-        intruding_edges(x, marked, rows, y, gy, side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
+        intruding_edges(x, marked, rows, y, gy, gy_side,
+                        side == 0 ? out.edges_a_in_b : out.edges_b_in_a);
       for (const Index t : marked) row_of_[t] = -1;
     }
   }
@@ -819,8 +943,8 @@ inline bool meets_padded_box(const Eigen::Vector3d& slo, const Eigen::Vector3d& 
 }  // namespace
 
 void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> marked,
-                               const Rows& rows, const CollisionBody&, const Geometry& gy,
-                               std::vector<IntrudingNode>& out) {
+                               const Rows& rows, const CollisionBody& y, const Geometry& gy,
+                               int gy_side, std::vector<IntrudingNode>& out) {
   collect_features(marked, x, false);
   const Positions& px = *x.positions_;
   const double rel = relative_tolerance();
@@ -832,54 +956,55 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
   const Eigen::Array3d reach_hi = gy.reach.hi.array() + reach_tol;
   const std::size_t chunks = detail::num_chunks(features_.size(), kFeatureChunk);
   detail::reset_parts(node_parts_, chunks);
-  detail::for_chunks(features_.size(), kFeatureChunk,
-                     [&](std::size_t begin, std::size_t end, std::size_t c) {
-                       VisitMarks& marks = t_marks;
-                       if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
-                       for (std::size_t i = begin; i < end; ++i) {
-                         const Index node = features_[i];
-                         const Eigen::Vector3d p = px.col(node);
-                         if (!((p.array() >= reach_lo).all() && (p.array() <= reach_hi).all()))
-                           continue;
-                         // The first tet of Y (in tet order) containing the node, among the tets
-                         // overlapped by the marked tets around it. Rows repeat tets: a tet
-                         // already tested for this node (it did not contain it) or not before the
-                         // best found so far is skipped, so no need to sort them.
-                         // Slots follow tet order: the smallest slot is the first tet.
-                         Index best = std::numeric_limits<Index>::max();
-                         Eigen::Vector4d bary = Eigen::Vector4d::Zero();
-                         const std::uint64_t now = ++marks.now;
-                         for (const Index t : x.node_tets_.row(node)) {
-                           const Index r = row_of_[t];
-                           if (r < 0) continue;
-                           for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
-                             const Index slot = rows.items[k];
-                             if (slot >= best) break;  // rows are sorted
-                             if (marks.mark[slot] == now) continue;
-                             marks.mark[slot] = now;
-                             const TetBox& box = gy.boxes[slot];
-                             const double tol = rel * box.scale;
-                             if (!((p.array() >= box.lo.array() - tol).all() &&
-                                   (p.array() <= box.hi.array() + tol).all()))
-                               continue;
-                             const PointInTet hit = point_in_tet(p, gy.geom[slot], tol);
-                             if (hit.inside) {
-                               best = slot;
-                               bary = hit.bary;
-                               break;
-                             }
-                           }
-                         }
-                         if (best != std::numeric_limits<Index>::max())
-                           node_parts_[c].push_back({node, gy.tets[best], bary});
-                       }
-                     });
+  detail::for_chunks(
+      features_.size(), kFeatureChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+        VisitMarks& marks = t_marks;
+        if (marks.mark.size() < gy.tets.size()) marks.mark.resize(gy.tets.size(), 0);
+        GeometryOf geometry(thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size()),
+                            gy_side, geometry_stamp_, *y.positions_, y.tets_, gy.tets);
+        for (std::size_t i = begin; i < end; ++i) {
+          const Index node = features_[i];
+          const Eigen::Vector3d p = px.col(node);
+          if (!((p.array() >= reach_lo).all() && (p.array() <= reach_hi).all())) continue;
+          // The first tet of Y (in tet order) containing the node, among the tets
+          // overlapped by the marked tets around it. Rows repeat tets: a tet
+          // already tested for this node (it did not contain it) or not before the
+          // best found so far is skipped, so no need to sort them.
+          // Slots follow tet order: the smallest slot is the first tet.
+          Index best = std::numeric_limits<Index>::max();
+          Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+          const std::uint64_t now = ++marks.now;
+          for (const Index t : x.node_tets_.row(node)) {
+            const Index r = row_of_[t];
+            if (r < 0) continue;
+            for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
+              const Index slot = rows.items[k];
+              if (slot >= best) break;  // rows are sorted
+              if (marks.mark[slot] == now) continue;
+              marks.mark[slot] = now;
+              const TetBox& box = gy.boxes[slot];
+              const double tol = rel * box.scale;
+              if (!((p.array() >= box.lo.array() - tol).all() &&
+                    (p.array() <= box.hi.array() + tol).all()))
+                continue;
+              const PointInTet hit = point_in_tet(p, geometry(slot), tol);
+              if (hit.inside) {
+                best = slot;
+                bary = hit.bary;
+                break;
+              }
+            }
+          }
+          if (best != std::numeric_limits<Index>::max())
+            node_parts_[c].push_back({node, gy.tets[best], bary});
+        }
+      });
   detail::concat_parts(node_parts_, chunks, out);
 }
 
 void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> marked,
-                               const Rows& rows, const CollisionBody&, const Geometry& gy,
-                               std::vector<IntrudingEdge>& out) {
+                               const Rows& rows, const CollisionBody& y, const Geometry& gy,
+                               int gy_side, std::vector<IntrudingEdge>& out) {
   collect_features(marked, x, true);
   const Positions& px = *x.positions_;
   const double rel = relative_tolerance();
@@ -895,7 +1020,9 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
         const Index* const offsets = rows.offsets.data();
         const Index* const items = rows.items.data();
         const TetBox* const boxes = gy.boxes.data();
-        const TetGeometry* const geom = gy.geom.data();
+        GeometryOf geometry(thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size()),
+                            gy_side, geometry_stamp_, *y.positions_, y.tets_, gy.tets);
+        const TetGeometry* const geom = geometry.base();
         for (std::size_t i = begin; i < end; ++i) {
           const Index edge = features_[i];
           const Eigen::Vector3d p0 = px.col(x.edges_[edge][0]);
@@ -925,7 +1052,7 @@ void Detector::intruding_edges(const CollisionBody& x, std::span<const Index> ma
               const TetBox& box = boxes[slot];
               const double tol = rel * std::max(box.scale, length);
               if (!meets_padded_box(lo, hi, box.lo, box.hi, tol)) continue;
-              marks.clip_targets.push_back({&geom[slot], tol});
+              marks.clip_targets.push_back({&geometry(slot), tol});
             }
           }
           const std::size_t n = marks.clip_targets.size();

@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -192,6 +193,11 @@ class CollisionBody {
 class Detector {
  public:
   explicit Detector(DetectOptions options = {});
+  ~Detector();
+  Detector(Detector&&) noexcept;
+  Detector& operator=(Detector&&) noexcept;
+  Detector(const Detector&) = delete;
+  Detector& operator=(const Detector&) = delete;
 
   [[nodiscard]] const DetectOptions& options() const { return options_; }
   void set_options(const DetectOptions& options) { options_ = options; }
@@ -227,21 +233,30 @@ class Detector {
     Eigen::Vector3d lo, hi;
     double scale = 0.0;
   };
+  /// The tets of one body that appear in candidate pairs, by slot (their index in `tets`),
+  /// with their boxes. Their TetGeometry is built by each thread that needs it, in that
+  /// thread's own copy (ThreadGeometry, detect.cpp): a tet's geometry is 816 bytes, and a
+  /// shared copy written by one core and read by the other cost more than building it
+  /// twice when the two cores are far apart (docs/BENCHMARKS.md, "Step 11").
   struct Geometry {
-    std::vector<Index> tets;        ///< sorted
-    std::vector<TetGeometry> geom;  ///< one per entry of tets
-    std::vector<TetBox> boxes;      ///< geom[i].lo, .hi, .scale
+    std::vector<Index> tets;    ///< sorted
+    std::vector<TetBox> boxes;  ///< per slot: make_tet_geometry()'s lo, hi, scale
     /// The union of `boxes` and their largest scale: no point or segment outside it,
     /// padded by the tolerance, can be in any of these tets.
     TetBox reach;
     std::vector<Index> slot;  ///< scratch, per tet of the body: index or -1
   };
+  struct ThreadGeometry;
+  class GeometryOf;
   void build_geometry(const CollisionBody& body, Geometry& g);
   static void clear_slots(Geometry& g);
+  /// gy_side: 0 when Y is the pair's body A, 1 when B (which copy of each thread's geometry).
   void intruding_nodes(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
-                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingNode>& out);
+                       const CollisionBody& y, const Geometry& gy, int gy_side,
+                       std::vector<IntrudingNode>& out);
   void intruding_edges(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,
-                       const CollisionBody& y, const Geometry& gy, std::vector<IntrudingEdge>& out);
+                       const CollisionBody& y, const Geometry& gy, int gy_side,
+                       std::vector<IntrudingEdge>& out);
   void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
   /// options_.relative_tolerance, with negative or NaN read as 0.
   [[nodiscard]] double relative_tolerance() const {
@@ -266,6 +281,8 @@ class Detector {
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
   Geometry geom_a_, geom_b_;
+  std::unique_ptr<ThreadGeometry> thread_geometry_;  ///< each thread's geometry of both bodies
+  std::uint64_t geometry_stamp_ = 0;                 ///< detect() calls that built geometry
   Rows rows_a_, rows_b_;
   std::vector<Index> row_of_;        ///< scratch: tet of X -> its row, or -1
   std::vector<Index> counts_;        ///< scratch: counting sort of the rows of B

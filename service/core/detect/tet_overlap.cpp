@@ -251,23 +251,23 @@ TC_INLINE void transpose4(const V4 (&r)[4], V4 (&out)[4]) {
 
 /// Writes field values r[k] (lane j = tet j) as entries k = 0..3 of each tet's array.
 template <typename Field>
-TC_INLINE void store_rows(const V4 (&r)[4], TetGeometry* g, Field field) {
+TC_INLINE void store_rows(const V4 (&r)[4], const std::array<TetGeometry*, 4>& g, Field field) {
   V4 rows[4];
   transpose4(r, rows);
 #pragma GCC unroll 8
-  for (int j = 0; j < 4; ++j) std::memcpy((g[j].*field).data(), &rows[j], sizeof(V4));
+  for (int j = 0; j < 4; ++j) std::memcpy((g[j]->*field).data(), &rows[j], sizeof(V4));
 }
 
 /// The same for the 6 entries of an edge array: r[0..5]; entries 6 and 7 (when the array
 /// has them) get 0.
 template <typename Field>
-TC_INLINE void store_rows6(const V4 (&r)[6], TetGeometry* g, Field field) {
+TC_INLINE void store_rows6(const V4 (&r)[6], const std::array<TetGeometry*, 4>& g, Field field) {
   V4 rows[4], tail[4];
   transpose4({r[0], r[1], r[2], r[3]}, rows);
   transpose4({r[4], r[5], splat(0.0), splat(0.0)}, tail);
 #pragma GCC unroll 8
   for (int j = 0; j < 4; ++j) {
-    auto& a = g[j].*field;
+    auto& a = g[j]->*field;
     std::memcpy(a.data(), &rows[j], sizeof(V4));
     std::memcpy(a.data() + 4, &tail[j], (a.size() - 4) * sizeof(double));
   }
@@ -326,7 +326,8 @@ namespace {
 // compare the two field by field.
 // (Kept apart from the multiversioned entry point: a call that passes a 4-double vector
 // from that function's baseline copy is an ABI error for clang.)
-TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* out) {
+TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t,
+                              const std::array<TetGeometry*, 4>& out) {
   // Each group of fields is computed and written before the next one starts, so that few
   // vectors are live at once (the whole tet in registers would spill most of them).
   V4 X[4], Y[4], Z[4];  // corner i by coordinate, lane j = tet j
@@ -353,10 +354,10 @@ TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* o
     scale = vmax(vmax(hix - lox, hiy - loy), hiz - loz);
 #pragma GCC unroll 8
     for (int j = 0; j < 4; ++j) {
-      out[j].lo = Vector3d(lox[j], loy[j], loz[j]);
-      out[j].hi = Vector3d(hix[j], hiy[j], hiz[j]);
-      out[j].scale = scale[j];
-      out[j].v = t[j];
+      out[j]->lo = Vector3d(lox[j], loy[j], loz[j]);
+      out[j]->hi = Vector3d(hix[j], hiy[j], hiz[j]);
+      out[j]->scale = scale[j];
+      out[j]->v = t[j];
     }
   }
   // Edges (kTetEdges order), then 6V and the orientation from the first three.
@@ -441,7 +442,7 @@ TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* o
   }
 #pragma GCC unroll 8
   for (int j = 0; j < 4; ++j) {
-    TetGeometry& g = out[j];
+    TetGeometry& g = *out[j];
     g.flat = flat[j] != 0;
     if (finite[j] == 0) {  // as make_tet_geometry(): an empty box, separated from all
       g.lo.setConstant(kInf);
@@ -455,8 +456,12 @@ TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t, TetGeometry* o
 }  // namespace
 
 TC_TARGET_CLONES_AVX2 void make_tet_geometry4(const std::array<TetCorners, 4>& t,
-                                              TetGeometry* out) {
+                                              const std::array<TetGeometry*, 4>& out) {
   geometry_lanes(t, out);
+}
+
+void make_tet_geometry4(const std::array<TetCorners, 4>& t, TetGeometry* out) {
+  make_tet_geometry4(t, {out, out + 1, out + 2, out + 3});
 }
 
 void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
