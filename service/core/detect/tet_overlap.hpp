@@ -40,9 +40,9 @@ struct TetGeometry {
   // apart; index = face k, corner i or edge j): they feed the vector lanes of
   // tets_overlap() and clip_segment_tet(), and the scalar reference functions read them
   // back through normal(), edge() and arc(), so both see the same bits. Nothing is
-  // stored twice: a tet's geometry is written once a frame and read by every thread that
-  // tests a pair with it, and each cache line of it that moves between cores costs
-  // 30-160 ns here (docs/BENCHMARKS.md, Detection -> "Step 7").
+  // stored twice: a tet's geometry is written every frame by each thread that tests it
+  // (detection keeps one copy per thread: a cache line that moves between cores costs
+  // 30-320 ns here, docs/BENCHMARKS.md, Detection -> "Step 7" and "Step 11").
   Eigen::Vector3d lo, hi;            ///< bounding box, m
   double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)
