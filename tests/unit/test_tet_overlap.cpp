@@ -459,7 +459,7 @@ TEST(TetGeometry, FourAtOnceHasTheBitsOfOneAtATime) {
       t[j] = c;
     }
     std::array<TetGeometry, 4> got;
-    make_tet_geometry4(t, got.data());
+    make_tet_geometry4(t, {&got[0], &got[1], &got[2], &got[3]});
     for (int j = 0; j < 4; ++j) {
       const TetGeometry want = make_tet_geometry(t[j]);
       expect_same_geometry(got[j], want, iter, j);

@@ -512,6 +512,16 @@ struct Detector::ThreadGeometry {
     std::array<std::vector<std::uint64_t>, 2> built;  ///< per slot: the stamp it was built at
     std::uint64_t all_built = 0;                      ///< the stamp every slot was built at
     std::vector<Index> missing;                       ///< scratch: slots to build
+
+    /// True when slot s of body w (0: A, 1: B) is still to be built in the detect() call
+    /// `stamp`; it then counts as built.
+    bool claim(std::size_t w, Index s, std::uint64_t stamp) {
+      if (all_built == stamp) return false;
+      std::uint64_t& b = built[w][static_cast<std::size_t>(s)];
+      if (b == stamp) return false;
+      b = stamp;
+      return true;
+    }
   };
   tbb::enumerable_thread_specific<Copy> copies;
 
@@ -560,31 +570,29 @@ class Detector::GeometryOf {
  public:
   GeometryOf(ThreadGeometry::Copy& copy, int side, std::uint64_t stamp, const Positions& positions,
              std::span<const Tet> body_tets, std::span<const Index> tets)
-      : geom_(copy.geom[static_cast<std::size_t>(side)]),
-        built_(copy.built[static_cast<std::size_t>(side)]),
+      : copy_(copy),
+        side_(static_cast<std::size_t>(side)),
         stamp_(stamp),
-        all_built_(copy.all_built == stamp),
         positions_(positions),
         body_tets_(body_tets),
         tets_(tets) {}
 
   const TetGeometry& operator()(Index slot) {
-    const auto s = static_cast<std::size_t>(slot);
-    if (!all_built_ && built_[s] != stamp_) {
-      built_[s] = stamp_;
-      make_tet_geometry(tet_corners(positions_, body_tets_[static_cast<std::size_t>(tets_[s])]),
-                        geom_[s]);
-    }
-    return geom_[s];
+    TetGeometry& g = copy_.geom[side_][static_cast<std::size_t>(slot)];
+    if (copy_.claim(side_, slot, stamp_))
+      make_tet_geometry(
+          tet_corners(positions_,
+                      body_tets_[static_cast<std::size_t>(tets_[static_cast<std::size_t>(slot)])]),
+          g);
+    return g;
   }
   /// The slot of geometry g: &g - base().
-  [[nodiscard]] const TetGeometry* base() const { return geom_.data(); }
+  [[nodiscard]] const TetGeometry* base() const { return copy_.geom[side_].data(); }
 
  private:
-  std::vector<TetGeometry>& geom_;
-  std::vector<std::uint64_t>& built_;
+  ThreadGeometry::Copy& copy_;
+  std::size_t side_;
   std::uint64_t stamp_;
-  bool all_built_;
   const Positions& positions_;
   std::span<const Tet> body_tets_;
   std::span<const Index> tets_;
@@ -596,7 +604,7 @@ Detector::~Detector() = default;
 Detector::Detector(Detector&&) noexcept = default;
 Detector& Detector::operator=(Detector&&) noexcept = default;
 
-void Detector::build_geometry(const CollisionBody& body, Geometry& g) {
+void Detector::index_tets(const CollisionBody& body, Geometry& g) {
   if (g.slot.size() < body.tets_.size()) g.slot.resize(body.tets_.size(), -1);
   g.boxes.resize(g.tets.size());
   for (std::size_t i = 0; i < g.tets.size(); ++i) g.slot[g.tets[i]] = static_cast<Index>(i);
@@ -776,8 +784,8 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     for (const TetPair& p : candidates_) set.insert(p.tet_b);
     set.drain(geom_b_.tets);
   }
-  build_geometry(a, geom_a_);
-  build_geometry(b, geom_b_);
+  index_tets(a, geom_a_);
+  index_tets(b, geom_b_);
   ++geometry_stamp_;
   if (detail::single_thread()) {
     // Every chunk below runs on this thread: all the geometry now, in slot order.
@@ -798,15 +806,12 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
           // been in this call (A's tets come in order, B's scattered).
           auto& copy = thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size());
           const std::uint64_t stamp = geometry_stamp_;
-          const auto gather = [&](int w, const Geometry& g, auto tet_of) {
+          const auto gather = [&](std::size_t w, const Geometry& g, auto tet_of) {
             copy.missing.clear();
-            if (copy.all_built == stamp) return;
-            std::vector<std::uint64_t>& built = copy.built[static_cast<std::size_t>(w)];
+            if (copy.all_built == stamp) return;  // the calling thread of a one-thread call
             for (std::size_t i = begin; i < end; ++i) {
               const Index slot = g.slot[tet_of(candidates_[i])];
-              if (built[static_cast<std::size_t>(slot)] == stamp) continue;
-              built[static_cast<std::size_t>(slot)] = stamp;
-              copy.missing.push_back(slot);
+              if (copy.claim(w, slot, stamp)) copy.missing.push_back(slot);
             }
           };
           const auto missing = [&](std::size_t k) {

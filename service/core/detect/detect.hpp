@@ -248,7 +248,9 @@ class Detector {
   };
   struct ThreadGeometry;
   class GeometryOf;
-  void build_geometry(const CollisionBody& body, Geometry& g);
+  /// g.slot, g.boxes and g.reach for the tets in g.tets (their geometry is built later, by
+  /// each thread that needs it).
+  void index_tets(const CollisionBody& body, Geometry& g);
   static void clear_slots(Geometry& g);
   /// gy_side: 0 when Y is the pair's body A, 1 when B (which copy of each thread's geometry).
   void intruding_nodes(const CollisionBody& x, std::span<const Index> marked, const Rows& rows,

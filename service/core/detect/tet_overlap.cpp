@@ -460,10 +460,6 @@ TC_TARGET_CLONES_AVX2 void make_tet_geometry4(const std::array<TetCorners, 4>& t
   geometry_lanes(t, out);
 }
 
-void make_tet_geometry4(const std::array<TetCorners, 4>& t, TetGeometry* out) {
-  make_tet_geometry4(t, {out, out + 1, out + 2, out + 3});
-}
-
 void make_tet_geometry(const TetCorners& t, TetGeometry& g) {
   g.v = t;
   g.lo = g.hi = t[0];

@@ -72,10 +72,9 @@ TetGeometry make_tet_geometry(const TetCorners& t);
 /// The same, written into `g` (every field), so that an array of them is filled in place.
 void make_tet_geometry(const TetCorners& t, TetGeometry& g);
 
-/// make_tet_geometry() of 4 tets at once (one per vector lane), written into out[0..3]:
-/// the same bits in every field as 4 single calls, for a fraction of the instructions.
-void make_tet_geometry4(const std::array<TetCorners, 4>& t, TetGeometry* out);
-/// The same, written into *out[0..3] (4 distinct tets' geometry anywhere).
+/// make_tet_geometry() of 4 tets at once (one per vector lane), written into *out[0..3]
+/// (4 distinct TetGeometry anywhere): the same bits in every field as 4 single calls, for a
+/// fraction of the instructions.
 void make_tet_geometry4(const std::array<TetCorners, 4>& t, const std::array<TetGeometry*, 4>& out);
 
 /// Largest extent of the bounding box of the corners of `a` and `b` (metres): the length
