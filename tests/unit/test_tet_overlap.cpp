@@ -506,6 +506,10 @@ class VectorisedOverlap : public ::testing::Test {
   std::uniform_real_distribution<double> u_{0.0, 1.0};
   int checked_ = 0, overlapping_ = 0;
 
+  // A failed assertion leaves check() with the baseline copy switched on: later tests run
+  // the copy this CPU picks again.
+  void TearDown() override { detail::use_baseline_kernels(false); }
+
   Vector3d random_unit() {
     std::normal_distribution<double> g;
     return Vector3d(g(rng_), g(rng_), g(rng_)).normalized();

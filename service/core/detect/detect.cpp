@@ -578,13 +578,12 @@ class Detector::GeometryOf {
         tets_(tets) {}
 
   const TetGeometry& operator()(Index slot) {
-    TetGeometry& g = copy_.geom[side_][static_cast<std::size_t>(slot)];
+    std::vector<TetGeometry>& geom = copy_.geom[side_];
+    const auto s = static_cast<std::size_t>(slot);
     if (copy_.claim(side_, slot, stamp_))
-      make_tet_geometry(
-          tet_corners(positions_,
-                      body_tets_[static_cast<std::size_t>(tets_[static_cast<std::size_t>(slot)])]),
-          g);
-    return g;
+      build_slots(
+          positions_, body_tets_, tets_, 1, [s](std::size_t) { return s; }, geom);
+    return geom[s];
   }
   /// The slot of geometry g: &g - base().
   [[nodiscard]] const TetGeometry* base() const { return copy_.geom[side_].data(); }
