@@ -4,20 +4,26 @@
 // parsed token by token with std::istringstream (the approach the readers avoid).
 // The per-frame state check of the same box (validate_positions: finite coordinates,
 // degenerate and inverted tets), its nodes in mesher order and shuffled, against the
-// floor issue 13 sets for work outside the contact: reading the positions once.
+// floor issue 13 sets for work outside the contact: reading the positions once; and what
+// a contact frame reads of every node (NodePasses).
 #include <benchmark/benchmark.h>
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_reduce.h>
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <sstream>
 #include <string>
 
+#include "core/detect/detect.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/shape_check.hpp"
 #include "core/mesh/topology.hpp"
@@ -181,25 +187,22 @@ void BM_ValidatePositionsMinQuality(benchmark::State& state) {
   validate(state, box(), true);
 }
 
-/// The per-frame check of the pipeline (tc::ShapeCheck) over a sequence of states of the box.
-/// state.range(0): threads; state.range(1): the motion between frames (0 still, 1 every
-/// node jittered by 1e-6 of the box, 2 a dent of ~1% of the nodes pressed in and out,
-/// 3 the whole box turned by 0.01 rad a frame); state.range(2): 1 = the baseline,
-/// validate_positions() of every tet on the same states.
-void BM_ShapeCheck(benchmark::State& state) {
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
-                              static_cast<std::size_t>(state.range(0)));
-  const tc::TetMesh& mesh = box();
-  const tc::TetCheckOrder order = tc::make_tet_check_order(mesh.positions, mesh.tets);
-  const tc::Topology topology = tc::build_topology(mesh.tets, mesh.num_nodes());
-  tc::ValidationOptions options;
-  options.compute_min_quality = false;
-  tc::ShapeCheck check(order, topology.node_tets, mesh.num_nodes(), options);
-  const tc::Positions& rest = mesh.positions;
+/// The middle of the box's top face, where motion 2 presses.
+Eigen::Vector3d dent_centre() {
+  const tc::Positions& rest = box().positions;
+  const Eigen::Vector3d lo = rest.rowwise().minCoeff(), hi = rest.rowwise().maxCoeff();
+  return {0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z()};
+}
+
+/// The states of the box's frames for a kind of motion: 0 still, 1 every node jittered by
+/// 1e-6 of the box, 2 a dent of ~1% of the nodes pressed in and out (a tool 0.14 of the
+/// box wide, 0.02 of it deep, in the middle of the top face), 3 the whole box turned by
+/// 0.01 rad a frame.
+std::vector<tc::Positions> box_states(long motion) {
+  const tc::Positions& rest = box().positions;
   const Eigen::Vector3d lo = rest.rowwise().minCoeff(), hi = rest.rowwise().maxCoeff();
   const double size = (hi - lo).maxCoeff();
   std::vector<tc::Positions> states;
-  const long motion = state.range(1);
   if (motion == 0) states = {rest};
   if (motion == 1) {
     std::mt19937 rng(3);
@@ -211,9 +214,8 @@ void BM_ShapeCheck(benchmark::State& state) {
     }
   }
   if (motion == 2) {
-    // A tool 0.14 of the box wide pressed 0.02 of the box into the middle of the top face.
-    const Eigen::Vector3d centre(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z());
     tc::Positions x = rest;
+    const Eigen::Vector3d centre = dent_centre();
     for (tc::Index i = 0; i < x.cols(); ++i) {
       const double d = (x.col(i) - centre).norm() / (0.14 * size);
       if (d < 1.0) x(2, i) -= 0.02 * size * (1.0 - d) * (1.0 - d);
@@ -224,20 +226,93 @@ void BM_ShapeCheck(benchmark::State& state) {
     for (int k = 1; k <= 64; ++k)
       states.push_back(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
                        rest);
+  return states;
+}
+
+/// The box with what its per-frame shape check reads, the check, and the states of a
+/// benchmark on state.range(0) threads with the motion state.range(1) (box_states()).
+struct BoxCheck {
+  explicit BoxCheck(const benchmark::State& state)
+      : threads(tbb::global_control::max_allowed_parallelism,
+                static_cast<std::size_t>(state.range(0))),
+        states(box_states(state.range(1))) {}
+  static tc::ValidationOptions frame_options() {
+    tc::ValidationOptions o;
+    o.compute_min_quality = false;
+    return o;
+  }
+  const tc::TetMesh& mesh = box();
+  tc::TetCheckOrder order = tc::make_tet_check_order(mesh.positions, mesh.tets);
+  tc::Topology topology = tc::build_topology(mesh.tets, mesh.num_nodes());
+  tc::ValidationOptions options = frame_options();
+  tc::ShapeCheck check{order, topology.node_tets, mesh.num_nodes(), options};
+  tbb::global_control threads;
+  std::vector<tc::Positions> states;
+};
+
+/// The per-frame check of the pipeline (tc::ShapeCheck) over a sequence of states of the box.
+/// state.range(0): threads; state.range(1): the motion between frames (box_states());
+/// state.range(2): 1 = the baseline, validate_positions() of every tet on the same states.
+void BM_ShapeCheck(benchmark::State& state) {
+  BoxCheck f(state);
+  const tc::TetMesh& mesh = f.mesh;
+  tc::ShapeCheck& check = f.check;
+  const std::vector<tc::Positions>& states = f.states;
+  const tc::Positions& rest = mesh.positions;
   (void)check.check(rest);  // the first state: the reference
   const bool full = state.range(2) != 0;
   std::size_t frame = 0, checked = 0;
   for (auto _ : state) {
     const tc::Positions& x = states[frame++ % states.size()];
     const tc::ValidationReport r =
-        full ? tc::validate_positions(x, order, options) : check.check(x);
+        full ? tc::validate_positions(x, f.order, f.options) : check.check(x);
     if (!r.clean()) state.SkipWithError("the box is not clean");
-    checked += full ? order.tets.size() : check.last().checked_tets;
+    checked += full ? f.order.tets.size() : check.last().checked_tets;
     benchmark::DoNotOptimize(r);
   }
   state.counters["tets"] = static_cast<double>(mesh.num_tets());
   state.counters["checked_tets"] =
       static_cast<double>(checked) / static_cast<double>(std::max<std::size_t>(frame, 1));
+}
+
+/// What a contact frame of the pipeline does with every node of a large object, outside
+/// the contact: the shape check's pass (tc::ShapeCheck::check) and the detection's
+/// comparison of the nodes with its references (tc::CollisionBody, the group boxes of its
+/// cull), with a small region near the top asked each frame, as a tool in contact asks it.
+/// state.range(0): threads; state.range(1): the motion (box_states()), 1 = every node
+/// jittered (the passes alone: no node goes beyond its radius or reach), 2 = the dent
+/// pressed in and out (with the work on the nodes that moved: their tets checked, radii
+/// and group boxes made again).
+void BM_NodePasses(benchmark::State& state) {
+  BoxCheck f(state);
+  const tc::TetMesh& mesh = f.mesh;
+  tc::ShapeCheck& check = f.check;
+  const std::vector<tc::Positions>& states = f.states;
+  tc::CollisionBody body(mesh.tets, f.topology);
+  const tc::Positions& rest = mesh.positions;
+  const Eigen::Vector3d centre = dent_centre();
+  const double size = (rest.rowwise().maxCoeff() - rest.rowwise().minCoeff()).maxCoeff();
+  const tc::Aabb region{centre - Eigen::Vector3d::Constant(0.03 * size), centre};
+  std::vector<tc::Index> near;
+  std::size_t frame = 0;
+  const auto run = [&] {
+    const tc::Positions& x = states[frame++ % states.size()];
+    const tc::ValidationReport r = check.check(x);
+    if (!check.last().has_box) {  // the first state: every tet checked
+      body.set_positions(x);
+    } else {
+      body.set_positions(x, tc::Aabb{check.last().box_lo, check.last().box_hi});
+    }
+    body.tets_near(region, near);
+    return r.clean();
+  };
+  for (int k = 0; k < 4; ++k) run();  // the references, the clusters
+  for (auto _ : state) {
+    if (!run()) state.SkipWithError("the box is not clean");
+    benchmark::DoNotOptimize(near.data());
+  }
+  state.counters["nodes"] = static_cast<double>(rest.cols());
+  state.counters["near_tets"] = static_cast<double>(near.size());
 }
 
 /// Floor: every coordinate read once (finite check and sum), one thread.
@@ -257,9 +332,39 @@ void BM_Baseline_ReadPositionsOnce(benchmark::State& state) {
   state.counters["nodes"] = static_cast<double>(p.cols());
 }
 
+/// The same floor on state.range(0) threads: chunks of 8,192 nodes summed in parallel.
+void BM_Baseline_ReadPositionsOnceParallel(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const tc::Positions& p = box().positions;
+  const double* x = p.data();
+  const auto count = static_cast<std::size_t>(p.size());
+  for (auto _ : state) {
+    const double sum = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, count, 3 * 8192), 0.0,
+        [x](const tbb::blocked_range<std::size_t>& r, double acc) {
+          bool finite = true;
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            finite = finite && std::isfinite(x[i]);
+            acc += x[i];
+          }
+          return finite ? acc : std::numeric_limits<double>::quiet_NaN();
+        },
+        std::plus<>());
+    benchmark::DoNotOptimize(sum);
+  }
+  state.counters["nodes"] = static_cast<double>(p.cols());
+}
+
 }  // namespace
 
 BENCHMARK(BM_Baseline_ReadPositionsOnce)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Baseline_ReadPositionsOnceParallel)
+    ->Arg(1)
+    ->Arg(2)
+    ->ArgName("threads")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_ValidatePositions)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ValidatePositionsShuffled)
     ->Arg(1)
@@ -274,6 +379,11 @@ BENCHMARK(BM_ValidatePositionsShuffledMorton)
 BENCHMARK(BM_ShapeCheck)
     ->ArgsProduct({{1, 2}, {0, 1, 2, 3}, {0, 1}})
     ->ArgNames({"threads", "motion", "full"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_NodePasses)
+    ->ArgsProduct({{1, 2}, {1, 2}})
+    ->ArgNames({"threads", "motion"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ValidatePositionsMinQuality)

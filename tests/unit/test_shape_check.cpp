@@ -11,6 +11,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 #include "core/mesh/geometry.hpp"
@@ -236,8 +237,17 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
 // extended node by node gets, bit for bit: the detection takes it instead of reading the
 // nodes again. Over small moves (the incremental path) of a box whose extreme
 // coordinates are zeros of both signs, in an order that changes from state to state.
-TEST(ShapeCheck, TheMotionPassesBoxIsTheNodeByNodeBoxBitForBit) {
-  Fixture f(test::structured_box(9, 8, 7, Eigen::Vector3d(-1, 0, -1), Eigen::Vector3d(0, 1, 0)));
+// Also on an object of several chunks of the parallel pass (11,109 nodes), where each
+// chunk's box is joined to the others': the signs of the zeros at the extremes are drawn
+// anew every state, so the first zero of each extreme moves between chunks.
+class MotionPassBox : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
+  const auto [cells, threads] = GetParam();
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<std::size_t>(threads));
+  Fixture f(test::structured_box(cells + 1, cells, cells - 1, Eigen::Vector3d(-1, 0, -1),
+                                 Eigen::Vector3d(0, 1, 0)));
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Positions x = f.mesh.positions;
@@ -272,6 +282,9 @@ TEST(ShapeCheck, TheMotionPassesBoxIsTheNodeByNodeBoxBitForBit) {
   }
   EXPECT_GT(boxes, 30);
 }
+
+INSTANTIATE_TEST_SUITE_P(ShapeCheck, MotionPassBox,
+                         ::testing::Values(std::tuple(8, 1), std::tuple(21, 1), std::tuple(21, 2)));
 
 TEST(ShapeCheck, ThreadCountChangesNothing) {
   const TetMesh mesh = test::ball_mesh(6, 1.0);

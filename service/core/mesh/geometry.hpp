@@ -47,6 +47,15 @@ class PointBox {
     hi_z_ = std::max(hi_z_, z);
   }
   void add(const double* p) { add(xy_of(p), p[2]); }
+  /// Adds the points of `later` (boxes of consecutive runs of points, added in order, give
+  /// the bits of adding the points one by one: an extreme is replaced only by one strictly
+  /// beyond it).
+  void add(const PointBox& later) {
+    lo_ = later.lo_ < lo_ ? later.lo_ : lo_;
+    hi_ = hi_ < later.hi_ ? later.hi_ : hi_;
+    lo_z_ = std::min(lo_z_, later.lo_z_);
+    hi_z_ = std::max(hi_z_, later.hi_z_);
+  }
   [[nodiscard]] Eigen::Vector3d lo() const { return {lo_[0], lo_[1], lo_z_}; }
   [[nodiscard]] Eigen::Vector3d hi() const { return {hi_[0], hi_[1], hi_z_}; }
 

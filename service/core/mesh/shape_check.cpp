@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/common/chunked.hpp"
 #include "core/common/parallel_chunks.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/mesh/geometry.hpp"
@@ -33,6 +34,11 @@ constexpr std::size_t kBusyFraction = 4;
 
 /// Nodes per call of detail::moved_mask().
 constexpr std::size_t kMotionLanes = 8;
+
+/// Nodes per chunk of the parallel motion pass (a multiple of kMotionLanes: only the last
+/// chunk has a tail).
+constexpr std::size_t kPassChunk = 8192;
+static_assert(kPassChunk % kMotionLanes == 0);
 
 /// Squared motion of the node at x (3 coordinates; reference position r) once `shift` is
 /// removed. The one expression of ShapeCheck::check's motion test, node by node and in
@@ -251,23 +257,41 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     for (std::size_t i = 0; i < n; i += stride) moved += beyond(i) ? 1 : 0;
     if (kBusyFraction * moved > samples) return busy();
   }
-  moved_.clear();
   {
     // The box of the positions on the way: the nodes are in cache, and the detection
-    // then need not read them again.
+    // then need not read them again. In fixed chunks of nodes (one for a small object),
+    // each with its own list and box, joined in chunk order: moved_ comes sorted, and
+    // the box is the node-by-node box (a later chunk's extreme replaces the earlier one
+    // only when strictly beyond it, as a later node's does).
+    const std::size_t chunks = detail::num_chunks(n, kPassChunk);
+    detail::reset_parts(moved_parts_, chunks);
+    pass_boxes_.assign(chunks, PointBox{});
+    const auto pass = [&](std::size_t begin, std::size_t end, std::size_t c) {
+      // Local copies: the calls below could write the captures as far as the compiler
+      // knows, which would reload them every call.
+      const double* const xc = x;
+      const double* const rc = r;
+      const double* const r2 = radius2_.data();
+      const double sc[3] = {shift[0], shift[1], shift[2]};
+      std::vector<Index>& moved = moved_parts_[c];
+      PointBox box;
+      std::size_t k = begin;
+      for (; k + kMotionLanes <= end; k += kMotionLanes) {  // in order: sorted
+        for (unsigned m = detail::moved_mask(xc + 3 * k, rc + 3 * k, r2 + k, sc); m != 0;
+             m &= m - 1)
+          moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(m))));
+        for (std::size_t l = 0; l < kMotionLanes; ++l) box.add(xc + 3 * (k + l));
+      }
+      for (; k < end; ++k) {
+        if (beyond(k)) moved.push_back(static_cast<Index>(k));
+        box.add(xc + 3 * k);
+      }
+      pass_boxes_[c] = box;
+    };
+    detail::for_chunks(n, kPassChunk, pass);
+    detail::concat_parts(moved_parts_, chunks, moved_);
     PointBox box;
-    const auto extend = [&](std::size_t i) { box.add(x + 3 * i); };
-    std::size_t k = 0;
-    for (; k + kMotionLanes <= n; k += kMotionLanes) {  // in order: moved_ stays sorted
-      for (unsigned m = detail::moved_mask(x + 3 * k, r + 3 * k, radius2_.data() + k, shift);
-           m != 0; m &= m - 1)
-        moved_.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(m))));
-      for (std::size_t l = 0; l < kMotionLanes; ++l) extend(k + l);
-    }
-    for (; k < n; ++k) {
-      if (beyond(k)) moved_.push_back(static_cast<Index>(k));
-      extend(k);
-    }
+    for (const PointBox& part : pass_boxes_) box.add(part);
     last_.has_box = true;
     last_.box_lo = box.lo();
     last_.box_hi = box.hi();

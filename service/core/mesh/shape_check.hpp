@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/common/chunk_buffer.hpp"
+#include "core/mesh/geometry.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/mesh/validate.hpp"
@@ -90,6 +92,8 @@ class ShapeCheck {
   std::vector<double> radius2_;     ///< per node: squared radius, -1: always check
   std::vector<std::uint64_t> place_bits_, node_bits_;  ///< bitmaps, all 0 between calls
   std::vector<Index> moved_, places_, nodes_;
+  detail::ChunkBuffers<Index> moved_parts_;  ///< per chunk of the motion pass: moved nodes
+  std::vector<PointBox> pass_boxes_;         ///< per chunk of the motion pass: its box
   std::vector<Tet> tets_;
   std::vector<Index> index_;
   std::size_t busy_streak_ = 0;  ///< full checks in a row
