@@ -294,25 +294,26 @@ void BM_NodePasses(benchmark::State& state) {
   const double size = (rest.rowwise().maxCoeff() - rest.rowwise().minCoeff()).maxCoeff();
   const tc::Aabb region{centre - Eigen::Vector3d::Constant(0.03 * size), centre};
   std::vector<tc::Index> near;
-  std::size_t frame = 0;
+  std::size_t frame = 0, bound = 0;
   const auto run = [&] {
     const tc::Positions& x = states[frame++ % states.size()];
     const tc::ValidationReport r = check.check(x);
-    if (!check.last().has_box) {  // the first state: every tet checked
-      body.set_positions(x);
-    } else {
-      body.set_positions(x, tc::Aabb{check.last().box_lo, check.last().box_hi});
-    }
+    const tc::Aabb box{check.last().box_lo, check.last().box_hi};  // as the pipeline passes it
+    body.set_positions(x, check.bound(), check.last().has_box ? &box : nullptr);
+    bound += body.groups_from_bound() ? 1 : 0;
     body.tets_near(region, near);
     return r.clean();
   };
   for (int k = 0; k < 4; ++k) run();  // the references, the clusters
+  bound = 0;
   for (auto _ : state) {
     if (!run()) state.SkipWithError("the box is not clean");
     benchmark::DoNotOptimize(near.data());
   }
   state.counters["nodes"] = static_cast<double>(rest.cols());
   state.counters["near_tets"] = static_cast<double>(near.size());
+  state.counters["from_bound"] = static_cast<double>(bound) /
+                                 static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
 }
 
 /// Floor: every coordinate read once (finite check and sum), one thread.

@@ -20,6 +20,8 @@
 
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/shape_check.hpp"
+#include "core/mesh/validate.hpp"
 #include "sanitizer.hpp"
 #include "test_meshes.hpp"
 
@@ -871,6 +873,285 @@ TEST(Detect, ClusterCullKeepsEveryTetThatMeetsTheRegion) {
     }
   }
   EXPECT_EQ(asked, 8);
+}
+
+/// Detection of the tool `tool_mesh` against two bodies of one object, `got` and `want`:
+/// the same contacts. Returns want's, with both calls' stats.
+PairContacts detect_alike(Detector& got_detector, CollisionBody& got, Detector& want_detector,
+                          CollisionBody& want, const TetMesh& tool_mesh, DetectStats* got_stats,
+                          DetectStats* want_stats, Aabb* tool_box = nullptr) {
+  const Object tool(tool_mesh);
+  CollisionBody tool_body(tool.mesh.tets, tool.topo);
+  tool_body.set_positions(tool.mesh.positions);
+  PairContacts got_contacts, want_contacts;
+  got_detector.detect(got, tool_body, got_contacts, got_stats);
+  want_detector.detect(want, tool_body, want_contacts, want_stats);
+  expect_identical(got_contacts, want_contacts);
+  if (tool_box != nullptr) *tool_box = tool_body.box();
+  return want_contacts;
+}
+
+/// A body given its object's shape-check bounds (as the pipeline gives them) and one that
+/// compares its nodes itself, over the same states; checks both against each other and
+/// against the tets' boxes.
+struct BoundAndOwn {
+  explicit BoundAndOwn(const Object& object)
+      : large(object),
+        order(make_tet_check_order(object.mesh.positions, object.mesh.tets)),
+        check(order, object.topo.node_tets, object.mesh.num_nodes(), options()),
+        bound(object.mesh.tets, object.topo),
+        own(object.mesh.tets, object.topo) {}
+  static ValidationOptions options() {
+    ValidationOptions o;
+    o.compute_min_quality = false;
+    return o;
+  }
+  /// A new state of the large object: checked; when clean, both bodies take it (the bound
+  /// body with the check's bound unless `pass_bound` is false), else both keep the last.
+  /// Returns whether the state was taken.
+  bool take(const Positions& x, bool pass_bound = true) {
+    if (!check.check(x).clean()) {
+      bound.reuse_positions();
+      own.reuse_positions();
+      return false;
+    }
+    p = x;
+    if (!check.last().has_box) {  // every tet checked: no pass over the nodes, no box
+      if (pass_bound)
+        bound.set_positions(p, check.bound(), nullptr);
+      else
+        bound.set_positions(p);
+      own.set_positions(p);
+      return true;
+    }
+    const Aabb box{check.last().box_lo, check.last().box_hi};
+    if (pass_bound)
+      bound.set_positions(p, check.bound(), &box);
+    else
+      bound.set_positions(p, box);
+    own.set_positions(p, box);
+    return true;
+  }
+  void rest() {
+    bound.reuse_positions();
+    own.reuse_positions();
+  }
+  /// Detection against `tool` with both bodies: the same contacts and near tets, and every
+  /// tet whose box meets the overlap box of the two objects near. Returns whether they
+  /// overlap.
+  bool detect(const TetMesh& tool_mesh) {
+    DetectStats got_stats, want_stats;
+    Aabb tool_box;
+    const PairContacts want = detect_alike(bound_detector, bound, own_detector, own, tool_mesh,
+                                           &got_stats, &want_stats, &tool_box);
+    EXPECT_EQ(got_stats.tets_a_near, want_stats.tets_a_near);
+    EXPECT_EQ(got_stats.candidates, want_stats.candidates);
+    if (!got_stats.boxes_overlap) return false;
+    // Asked of copies: a second call would count the groups met twice, and the bodies
+    // would leave the group boxes next frame.
+    const Aabb region = bound.box().intersection(tool_box);
+    std::vector<Index> near_bound, near_own;
+    CollisionBody bound_copy = bound, own_copy = own;
+    bound_copy.tets_near(region, near_bound);
+    own_copy.tets_near(region, near_own);
+    EXPECT_EQ(near_bound, near_own);
+    for (std::size_t t = 0; t < large.mesh.tets.size(); ++t) {
+      Aabb b;
+      for (const Index v : large.mesh.tets[t]) b.extend(Vector3d(p.col(v)));
+      if (b.overlaps(region) &&
+          !std::binary_search(near_bound.begin(), near_bound.end(), static_cast<Index>(t)))
+        ADD_FAILURE() << "tet " << t << " meets the region but is not near";
+    }
+    return !want.overlapping.empty();
+  }
+
+  const Object& large;
+  TetCheckOrder order;
+  ShapeCheck check;
+  CollisionBody bound, own;
+  Detector bound_detector, own_detector;
+  Positions p;
+};
+
+// The group boxes from the shape check's bound (no pass over the nodes) give the near tets
+// and contacts of the body's own comparison, over frames of a bulge moving under the tool,
+// a corner lifted 15 cm with the tool on it (its references move, the rest's do not),
+// translations of the whole object (the check's shift), frames at rest, turns (every tet
+// checked; the reference rebuilt, then not), an inverted state (rejected), and a frame
+// whose bound is not passed on (the next bound is taken anew, and used from the one after).
+TEST(Detect, AShapeChecksBoundGivesTheNearTetsOfTheBodysOwnComparison) {
+  // 31 groups: the tool's region meets few of them, so the group boxes are used.
+  const Object large(test::structured_box(36, 36, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.05);
+  BoundAndOwn bodies(large);
+  std::mt19937 rng(13);
+  std::normal_distribution<double> jitter(0.0, 2e-4);
+  int from_bound = 0, moved_from_bound = 0, lifted_contact = 0, contact = 0, rejected = 0;
+  int rebuilt = 0, busy_not_rebuilt = 0;
+  for (int frame = 0; frame < 24; ++frame) {
+    SCOPED_TRACE(frame);
+    const bool lifted = frame % 3 == 1;
+    const double turn = frame >= 10 && frame <= 12 ? 0.1 * (frame - 9) : 0.0;
+    const Vector3d shift = Vector3d(0.2, 0.1, 0.05) * static_cast<double>(frame / 7);
+    const Eigen::Matrix3d rotation = Eigen::AngleAxisd(turn, Vector3d::UnitZ()).toRotationMatrix();
+    const Vector3d centre(0.5, 0.5, 0.0);
+    const auto place = [&](const Vector3d& x) -> Vector3d {
+      return rotation * (x - centre) + centre + shift;
+    };
+    // The corner beyond x, y = 0.94 lifted 15 cm (a hundredth of the nodes: the shift
+    // of the rest stays within their radii); a 2 cm bulge.
+    const auto lift = [&](const Vector3d& x) {
+      return lifted && x.x() > 0.94 && x.y() > 0.94 ? 0.15 : 0.0;
+    };
+    if (frame % 5 == 4) {
+      bodies.rest();
+    } else {
+      Positions x = large.mesh.positions;
+      const Eigen::Vector2d bulge(0.2 + 0.025 * frame, 0.5);
+      for (Eigen::Index i = 0; i < x.cols(); ++i) {
+        Vector3d v = x.col(i);
+        const double d = (v.head<2>() - bulge).norm();
+        if (d < 0.1) v.z() += 0.02 * (1.0 - d / 0.1);
+        v.z() += lift(v);
+        for (int c = 0; c < 3; ++c) v[c] += jitter(rng);
+        x.col(i) = place(v);
+      }
+      if (frame == 7) x.col(200) = x.col(201) + Vector3d(0.0, 0.0, -0.5);  // inverts its tets
+      const bool taken = bodies.take(x, frame != 17);
+      EXPECT_EQ(taken, frame != 7);
+      rejected += taken ? 0 : 1;
+      const MotionBound b = bodies.check.bound();
+      rebuilt += taken && b.rebuilt ? 1 : 0;
+      busy_not_rebuilt += taken && !b.bounded ? 1 : 0;
+      if (frame == 17 || frame == 18) {
+        EXPECT_FALSE(bodies.bound.groups_from_bound());  // not passed on, taken anew
+      }
+      if (taken && b.bounded && !b.rebuilt && frame != 17 && frame != 18) {
+        EXPECT_TRUE(bodies.bound.groups_from_bound());
+        moved_from_bound += b.moved.empty() ? 0 : 1;
+      }
+    }
+    from_bound += bodies.bound.groups_from_bound() ? 1 : 0;
+    const Vector3d target =
+        lifted ? Vector3d(0.97, 0.97, 0.25 + 0.15) : Vector3d(0.25 + 0.025 * frame, 0.5, 0.25);
+    const bool touch =
+        bodies.detect(moved(tool0, rotation, place(target + Vector3d(0.0, 0.0, 0.05 - 0.01))));
+    contact += touch ? 1 : 0;
+    lifted_contact += touch && lifted && bodies.bound.groups_from_bound() ? 1 : 0;
+  }
+  EXPECT_EQ(rejected, 1);
+  EXPECT_GE(rebuilt, 3);
+  EXPECT_GE(busy_not_rebuilt, 1);
+  EXPECT_GE(moved_from_bound, 8);
+  EXPECT_GE(lifted_contact, 3);
+  EXPECT_GE(from_bound, 14);
+  EXPECT_GE(contact, 20);  // not on the rest frames where the tool went on to the corner
+}
+
+// The bound covers nodes that moved within their radius: a top node raised by 0.9 of its
+// radius (the check does not count it as moved, so its reference stays), and the tool
+// touching only what it raised.
+TEST(Detect, AShapeChecksBoundCoversNodesThatMovedWithinTheirRadius) {
+  const Object large(test::structured_box(12, 12, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  BoundAndOwn bodies(large);
+  ASSERT_TRUE(bodies.take(large.mesh.positions));  // the reference
+  // The radius of a node as the check certifies it at the reference.
+  const ValidationOptions o = BoundAndOwn::options();
+  const double quality = std::max(o.sliver_quality, o.degenerate_quality);
+  const auto radius = [&](Index v) {
+    double r = std::numeric_limits<double>::infinity();
+    for (const Index t : large.topo.node_tets.row(v))
+      r = std::min(r, certified_motion_radius(large.mesh.positions, large.mesh.tets[t], quality));
+    return r;
+  };
+  int frames = 0;
+  for (const Vector3d& spot : {Vector3d(0.5, 0.5, 0.25), Vector3d(0.25, 0.75, 0.25),
+                               Vector3d(0.75, 0.25, 0.25), Vector3d(0.5, 0.5, 0.25)}) {
+    SCOPED_TRACE(frames);
+    Index apex = 0;
+    for (Index v = 0; v < large.mesh.num_nodes(); ++v)
+      if ((large.mesh.positions.col(v) - spot).norm() <
+          (large.mesh.positions.col(apex) - spot).norm())
+        apex = v;
+    const double r = radius(apex);
+    ASSERT_GT(r, 1e-4);
+    Positions x = large.mesh.positions;
+    const double up = (frames % 2 == 0 ? 0.9 : 0.8) * r;
+    x(2, apex) += up;
+    ASSERT_TRUE(bodies.take(x));
+    EXPECT_TRUE(bodies.bound.groups_from_bound());
+    EXPECT_EQ(bodies.check.last().moved_nodes, 0u);  // within its radius: not moved
+    // A ball 0.1 r wide, its lowest point half way up the raised apex.
+    const Vector3d at = x.col(apex) - Vector3d(0.0, 0.0, 0.5 * up - 0.1 * r);
+    EXPECT_TRUE(bodies.detect(moved(test::ball_mesh(3, 0.1 * r), Matrix3d::Identity(), at)));
+    ++frames;
+  }
+}
+
+// The bound's contract on its own (a MotionBound made by hand, no shape check): a radius
+// that grows in a check raises its groups' boxes from the next frame on, when the node may
+// use it; a translation is the shift; a bound whose versions do not follow the last is
+// taken anew and not used that frame.
+TEST(Detect, AMotionBoundsGrownRadiusAndShiftMoveTheGroupBoxes) {
+  // 14 groups, of which the tool meets one or two: the group boxes are used.
+  const Object large(test::structured_box(24, 24, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const auto n = static_cast<std::size_t>(large.mesh.num_nodes());
+  Index apex = 0;  // the top node nearest the middle
+  for (Index v = 0; v < large.mesh.num_nodes(); ++v)
+    if ((large.mesh.positions.col(v) - Vector3d(0.5, 0.5, 0.25)).norm() <
+        (large.mesh.positions.col(apex) - Vector3d(0.5, 0.5, 0.25)).norm())
+      apex = v;
+  const Positions reference = large.mesh.positions;
+  std::vector<double> radius2(n, 1e-6);  // 1 mm
+  MotionBound b;
+  b.bounded = b.rebuilt = true;
+  b.version_before = 0;
+  b.version_after = 1;
+  b.reference = &reference;
+  b.radius2 = radius2;
+  CollisionBody bound(large.mesh.tets, large.topo), own(large.mesh.tets, large.topo);
+  Detector bound_detector, own_detector;
+  Positions p = reference;
+  const auto frame = [&](const Vector3d& tool_at) {
+    bound.set_positions(p, b, nullptr);
+    own.set_positions(p);
+    return !detect_alike(bound_detector, bound, own_detector, own,
+                         moved(test::ball_mesh(3, 0.01), Matrix3d::Identity(), tool_at), nullptr,
+                         nullptr)
+                .overlapping.empty();
+  };
+  const Vector3d above = reference.col(apex) + Vector3d(0.0, 0.0, 0.01 + 0.02);
+  EXPECT_FALSE(frame(above));  // the reference; the tool 2 cm above the top
+  EXPECT_TRUE(bound.groups_from_bound());
+  // A check gives the apex a radius of 5 cm (its tets grew, say); the apex stays.
+  b.rebuilt = false;
+  b.version_before = 1;
+  b.version_after = 2;
+  radius2[static_cast<std::size_t>(apex)] = 0.05 * 0.05;
+  const std::vector<Index> changed = {apex};
+  b.changed = changed;
+  EXPECT_FALSE(frame(above));
+  EXPECT_TRUE(bound.groups_from_bound());
+  // The next check: nothing changed, the apex is 4 cm up, within its new radius, into the
+  // tool.
+  b.version_before = b.version_after = 2;
+  b.changed = {};
+  p(2, apex) += 0.04;
+  EXPECT_TRUE(frame(above));
+  EXPECT_TRUE(bound.groups_from_bound());
+  // The whole object 2 m along x (off its old place), the shift of the check.
+  p.row(0).array() += 2.0;
+  b.shift = Vector3d(2.0, 0.0, 0.0);
+  EXPECT_TRUE(frame(above + Vector3d(2.0, 0.0, 0.0)));
+  EXPECT_TRUE(bound.groups_from_bound());
+  // A check missed (versions 3 to 4 given after 2): taken anew, not used this frame.
+  b.version_before = 3;
+  b.version_after = 4;
+  EXPECT_TRUE(frame(above + Vector3d(2.0, 0.0, 0.0)));
+  EXPECT_FALSE(bound.groups_from_bound());
+  b.version_before = 4;
+  EXPECT_TRUE(frame(above + Vector3d(2.0, 0.0, 0.0)));
+  EXPECT_TRUE(bound.groups_from_bound());
 }
 
 // A tool creeping across a large object (1 kHz motion): the tree over the large object's

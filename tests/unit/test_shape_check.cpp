@@ -191,6 +191,52 @@ TEST(ShapeCheck, TheSameReportsAsTheFullCheckForEveryKindOfMotion) {
   EXPECT_EQ(f.check.last().checked_tets, 0u);
 }
 
+/// What ShapeCheck::bound() promises of a state `x` checked with the reference and radii
+/// `reference`, `radius2` (version `version`): when bounded, every node that did not move
+/// is within its radius of its reference moved by the shift, computed as check() computes
+/// it, and keeps its reference; every node that moved gets x less the shift; the versions
+/// follow on, and change exactly when something changed.
+void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Positions& reference,
+                        const std::vector<double>& radius2, const Positions& x,
+                        const ValidationReport& report) {
+  EXPECT_EQ(b.version_before, version);
+  if (!b.bounded) {
+    EXPECT_EQ(b.version_after, b.version_before);
+    return;
+  }
+  EXPECT_TRUE(report.clean());
+  const Positions& q = *b.reference;
+  if (b.rebuilt) {
+    EXPECT_EQ(q, x);
+    EXPECT_EQ(b.shift, Eigen::Vector3d::Zero());
+    EXPECT_EQ(b.version_after, b.version_before + 1);
+    return;
+  }
+  EXPECT_EQ(b.version_after, b.version_before + (b.moved.empty() ? 0 : 1));
+  std::vector<bool> moved(static_cast<std::size_t>(x.cols()), false);
+  for (const Index v : b.moved) moved[static_cast<std::size_t>(v)] = true;
+  std::vector<bool> changed(moved.size(), false);
+  for (const Index v : b.changed) changed[static_cast<std::size_t>(v)] = true;
+  for (Index i = 0; i < x.cols(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (moved[k]) {
+      EXPECT_TRUE(changed[k]) << i;
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(q(c, i), x(c, i) - b.shift[c]) << i;
+      continue;
+    }
+    EXPECT_EQ(q.col(i), reference.col(i)) << i;
+    double d2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double d = x(c, i) - reference(c, i) - b.shift[c];
+      d2 += d * d;
+    }
+    EXPECT_LE(d2, radius2[k]) << i;
+    if (!changed[k]) {
+      EXPECT_EQ(b.radius2[k], radius2[k]) << i;
+    }
+  }
+}
+
 TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   // Each step moves a random patch of nodes by a random amount, from a hair to far beyond
   // an edge; some steps are rejected, others rotate or translate the whole object.
@@ -200,8 +246,12 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   Positions x = f.mesh.positions;
   f.both(x);
   const Index n = f.mesh.num_nodes();
-  std::size_t incremental = 0, rejected = 0;
+  std::size_t incremental = 0, rejected = 0, bounded = 0;
   for (int step = 0; step < 400; ++step) {
+    // The reference and radii before this check, which its bound speaks of.
+    const MotionBound before = f.check.bound();
+    const Positions reference = *before.reference;
+    const std::vector<double> radius2(before.radius2.begin(), before.radius2.end());
     Positions next = x;
     const double kind = u(rng);
     if (kind < 0.05) {
@@ -223,6 +273,8 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
     }
     const ValidationReport r = f.both(next);
     if (!f.check.last().full) ++incremental;
+    expect_bound_holds(f.check.bound(), before.version_after, reference, radius2, next, r);
+    bounded += f.check.bound().bounded ? 1 : 0;
     if (r.clean()) {
       x = next;
     } else {
@@ -231,6 +283,7 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   }
   EXPECT_GT(incremental, 200u);  // the walk did exercise the incremental path
   EXPECT_GT(rejected, 5u);       // and states that must be rejected
+  EXPECT_GT(bounded, 300u);      // and bounds (turns: busy states, some not rebuilt)
 }
 
 // The box the motion pass makes on the way (Stats::box_lo, box_hi) is the box an Aabb

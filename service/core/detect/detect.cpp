@@ -274,14 +274,77 @@ void CollisionBody::build_clusters(const Positions& positions) {
 }
 
 void CollisionBody::set_positions(const Positions& positions) {
-  start_frame(positions, nullptr);
+  start_frame(positions, nullptr, nullptr);
 }
 
 void CollisionBody::set_positions(const Positions& positions, const Aabb& box) {
-  start_frame(positions, &box);
+  start_frame(positions, &box, nullptr);
 }
 
-void CollisionBody::start_frame(const Positions& positions, const Aabb* box) {
+void CollisionBody::set_positions(const Positions& positions, const MotionBound& bound,
+                                  const Aabb* box) {
+  start_frame(positions, box, &bound);
+}
+
+void CollisionBody::apply_bound(const MotionBound& b) {
+  const std::size_t groups = group_boxes_.size();
+  if (bound_boxes_.size() != groups) {
+    bound_boxes_.assign(groups, Aabb{});
+    bound_radius_.assign(groups, 0.0);
+    bound_synced_ = false;
+  }
+  const auto radius = [&](Index v) {
+    const double r2 = b.radius2[static_cast<std::size_t>(v)];
+    return r2 > 0.0 ? std::sqrt(r2) : 0.0;  // -1: always moved, so at its reference
+  };
+  const auto refit = [&](Index g) {
+    bound_boxes_[static_cast<std::size_t>(g)] = box_of_nodes(*b.reference, group_nodes_.row(g));
+  };
+  bound_frame_ = false;
+  if (!b.bounded) {  // a busy state: the reference and radii did not change, nor bound it
+    if (b.version_after != b.version_before) bound_synced_ = false;
+    return;
+  }
+  if (b.rebuilt || !bound_synced_ || bound_version_ != b.version_before) {
+    // Every group anew. Usable this frame only when the reference is the state itself:
+    // else the radii the state was tested with are gone.
+    detail::for_chunks(groups, 16, [&](std::size_t begin, std::size_t end, std::size_t) {
+      for (std::size_t g = begin; g < end; ++g) {
+        refit(static_cast<Index>(g));
+        double r = 0.0;
+        for (const Index v : group_nodes_.row(static_cast<Index>(g))) r = std::max(r, radius(v));
+        bound_radius_[g] = r;
+      }
+    });
+    bound_frame_ = b.rebuilt;
+  } else {
+    // The groups of the nodes whose reference changed are refitted; the nodes whose radius
+    // changed raise their groups' radius (the old radii bound this state, the new ones the
+    // next).
+    bound_dirty_.clear();
+    for (const Index v : b.moved)
+      for (const Index g : node_groups_.row(v)) bound_dirty_.push_back(g);
+    sort_unique(bound_dirty_);
+    detail::for_chunks(bound_dirty_.size(), 16,
+                       [&](std::size_t begin, std::size_t end, std::size_t) {
+                         for (std::size_t k = begin; k < end; ++k) refit(bound_dirty_[k]);
+                       });
+    for (const Index v : b.changed) {
+      const double r = radius(v);
+      for (const Index g : node_groups_.row(v)) {
+        double& gr = bound_radius_[static_cast<std::size_t>(g)];
+        gr = std::max(gr, r);
+      }
+    }
+    bound_frame_ = true;
+  }
+  bound_synced_ = true;
+  bound_version_ = b.version_after;
+  bound_shift_ = b.shift;
+}
+
+void CollisionBody::start_frame(const Positions& positions, const Aabb* box,
+                                const MotionBound* bound) {
   if (positions.cols() != num_nodes_)
     throw std::invalid_argument("CollisionBody: " + std::to_string(positions.cols()) +
                                 " positions for " + std::to_string(num_nodes_) + " nodes");
@@ -299,11 +362,18 @@ void CollisionBody::start_frame(const Positions& positions, const Aabb* box) {
   }
   const bool asked = near_asked_;
   decide_groups();
+  // (Positions set without a bound leave the chain of the check's versions as it is: the
+  // check's references and radii change only in a check, and the next bound says whether
+  // one was missed.)
+  bound_frame_ = false;
+  const bool clustered = !cluster_tets_.offsets.empty();
+  if (bound != nullptr && clustered) apply_bound(*bound);
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
   const std::size_t chunks = detail::num_chunks(n, kNodeChunk);
   // A body whose near tets were asked by groups last frame likely is this frame too: its
-  // nodes are compared with their references here, while each chunk is in cache.
-  const bool compare = asked && use_groups_ && ref_.cols() == num_nodes_;
+  // nodes are compared with their references here, while each chunk is in cache (unless
+  // the shape check's bound gives the group boxes).
+  const bool compare = !bound_frame_ && asked && use_groups_ && ref_.cols() == num_nodes_;
   if (compare) moved_parts_.resize(chunks);
   std::vector<Aabb> part(box == nullptr ? chunks : 0);
   if (box == nullptr || compare)
@@ -322,7 +392,10 @@ void CollisionBody::start_frame(const Positions& positions, const Aabb* box) {
     box_ = Aabb{};
     for (const Aabb& b : part) box_.extend(b);
   }
-  if (cluster_tets_.offsets.empty()) build_clusters(positions);
+  if (!clustered) {
+    build_clusters(positions);
+    if (bound != nullptr) apply_bound(*bound);
+  }
 }
 
 void CollisionBody::reuse_positions() {
@@ -364,7 +437,26 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
     // Once per frame and only for bodies in a pair whose object boxes touch: the group
     // boxes (each node read about once), or, when last frame's contact met most groups,
     // every cluster box directly.
-    if (use_groups_) {
+    if (use_groups_ && bound_frame_) {
+      // Every node lies within its radius of its reference in the shape check moved by
+      // the shift. The check's rounding of that distance and this box's are below 8 eps
+      // of the size of the coordinates: 32 eps covers them.
+      detail::for_chunks(groups, 64, [&](std::size_t begin, std::size_t end, std::size_t) {
+        const double shift_size = bound_shift_.cwiseAbs().maxCoeff();
+        for (std::size_t g = begin; g < end; ++g) {
+          const Aabb& q = bound_boxes_[g];
+          if (q.empty()) {
+            group_boxes_[g] = Aabb{};
+            continue;
+          }
+          const double size =
+              q.lo.cwiseAbs().cwiseMax(q.hi.cwiseAbs()).maxCoeff() + shift_size + bound_radius_[g];
+          const Eigen::Vector3d grow = Eigen::Vector3d::Constant(
+              bound_radius_[g] + 32.0 * std::numeric_limits<double>::epsilon() * size);
+          group_boxes_[g] = Aabb{q.lo + bound_shift_ - grow, q.hi + bound_shift_ + grow};
+        }
+      });
+    } else if (use_groups_) {
       if (motion_frame_ != frame_ && ref_.cols() == num_nodes_) {  // not compared yet
         const std::size_t n = static_cast<std::size_t>(num_nodes_);
         moved_parts_.resize(detail::num_chunks(n, kNodeChunk));

@@ -24,6 +24,7 @@
 #include "core/detect/broad_phase.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
+#include "core/mesh/shape_check.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 
@@ -85,6 +86,19 @@ class CollisionBody {
   /// after set_positions(positions), bit for bit (ShapeCheck::Stats::box_lo / box_hi of a
   /// clean state are). Saves the pass over the nodes that computes it.
   void set_positions(const Positions& positions, const Aabb& box);
+  /// The same, with what the object's shape check proved of these positions
+  /// (ShapeCheck::bound() of the check that accepted them): the
+  /// group boxes of tets_near() then come from the check's references and radii, and no
+  /// pass over the nodes compares them with the body's own references. The same near tets
+  /// either way. A bound that does not follow the last one given (a check in between whose
+  /// bound was not passed on) makes the body take the check's references and radii anew
+  /// and compare the nodes itself that frame.
+  /// `box` is the box of the check's pass when it made one (ShapeCheck::Stats::has_box),
+  /// else null (the body then reads the nodes for it).
+  void set_positions(const Positions& positions, const MotionBound& bound, const Aabb* box);
+  /// Whether this frame's group boxes come from a shape check's bound (no pass over the
+  /// nodes for them).
+  [[nodiscard]] bool groups_from_bound() const { return bound_frame_; }
 
   /// Starts a new frame with the last frame's positions: the same matrix, unchanged
   /// since set_positions() (a static object, or one without a new state). The box,
@@ -131,7 +145,7 @@ class CollisionBody {
   /// along a Morton curve of their centroids and cut into runs of 64; each frame a
   /// cluster's box is refitted from the nodes its tets use.
   void build_clusters(const Positions& positions);
-  void start_frame(const Positions& positions, const Aabb* box);
+  void start_frame(const Positions& positions, const Aabb* box, const MotionBound* bound);
   Csr cluster_tets_;                          ///< per cluster: its tets, sorted
   Csr cluster_nodes_;                         ///< per cluster: the nodes its tets use, sorted
   std::vector<Aabb> tet_boxes_;               ///< per cluster: box of its tets (valid when stamped)
@@ -162,6 +176,20 @@ class CollisionBody {
   /// boxes (every group when more than a quarter of the nodes moved), then this frame's
   /// group boxes.
   void finish_motion(const Positions& positions);
+  /// The group boxes from a shape check's bound (set_positions() with a MotionBound): per
+  /// group the box of its nodes' references in the check and a radius at least each of
+  /// its nodes' radii there since version bound_version_ (it only grows until the next
+  /// resync); a frame's group box is that box moved by the check's shift and grown by the
+  /// radius and the rounding.
+  std::vector<Aabb> bound_boxes_;
+  std::vector<double> bound_radius_;
+  std::uint64_t bound_version_ = 0;
+  bool bound_synced_ = false;  ///< bound_boxes_ and bound_radius_ hold for bound_version_
+  bool bound_frame_ = false;   ///< this frame's group boxes come from the bound
+  Eigen::Vector3d bound_shift_ = Eigen::Vector3d::Zero();
+  std::vector<Index> bound_dirty_;  ///< scratch
+  /// Takes in a shape check's bound of this frame's positions (sets bound_frame_).
+  void apply_bound(const MotionBound& bound);
   /// Last frame's regions met fewer than half of the groups: refit the groups first, then
   /// the clusters of the groups that meet. Else (a contact spread over most of the
   /// object) every cluster is refitted directly, which reads fewer nodes, and the group

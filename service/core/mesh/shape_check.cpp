@@ -214,6 +214,25 @@ void ShapeCheck::rebuild(const Positions& positions) {
                          radius2_[i] = node_radius2(static_cast<Index>(i));
                      });
   last_.rebuilt = true;
+  last_.bounded = true;  // every node at its reference, no shift
+  last_.shift.setZero();
+  last_.version_after = ++version_;
+}
+
+MotionBound ShapeCheck::bound() const {
+  MotionBound b;
+  b.bounded = last_.bounded;
+  b.rebuilt = last_.rebuilt;
+  b.version_before = last_.version_before;
+  b.version_after = last_.version_after;
+  b.shift = last_.shift;
+  b.reference = &reference_;
+  b.radius2 = radius2_;
+  if (b.version_after != b.version_before && !b.rebuilt) {
+    b.moved = moved_;
+    b.changed = nodes_;
+  }
+  return b;
 }
 
 ValidationReport ShapeCheck::check_all(const Positions& positions, bool rebuild_reference) {
@@ -229,6 +248,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     throw std::invalid_argument("ShapeCheck: " + std::to_string(positions.cols()) +
                                 " positions for " + std::to_string(num_nodes_) + " nodes");
   last_ = {};
+  last_.version_before = last_.version_after = version_;
   if (reference_.cols() == 0) return check_all(positions, true);
 
   // A translation changes no tet's shape: the displacements are compared after removing
@@ -322,7 +342,12 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   report.min_quality = std::numeric_limits<double>::quiet_NaN();
   detail::check_tet_shapes(positions, tets_, index_, options_, report);
   last_.checked_tets = places_.size();
-  if (!report.clean() || moved_.empty()) return report;
+  if (!report.clean()) return report;
+  // Every node that did not move is within its radius of its reference (shifted); those
+  // that did are made their own reference below.
+  last_.bounded = true;
+  last_.shift = Eigen::Vector3d(shift[0], shift[1], shift[2]);
+  if (moved_.empty()) return report;
 
   // Accepted: the nodes that moved join the reference (moved back by the shift, like the
   // rest of it), and the radii of their tets and of those tets' nodes are recomputed.
@@ -343,6 +368,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
                        for (std::size_t j = begin; j < end; ++j)
                          radius2_[static_cast<std::size_t>(nodes_[j])] = node_radius2(nodes_[j]);
                      });
+  last_.version_after = ++version_;
   return report;
 }
 

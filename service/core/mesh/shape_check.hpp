@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/common/chunk_buffer.hpp"
@@ -23,6 +24,26 @@ namespace tc {
 /// linear on [0, h] (the cubic's terms at h, the edge term's chord), for a few h; ~10% of
 /// the edge for a regular tet, within 2x of the largest radius the bound allows.
 double certified_motion_radius(const Positions& positions, const Tet& tet, double quality);
+
+/// What ShapeCheck::check() proved of the state it was given, for the detection's group
+/// boxes (CollisionBody::set_positions): when `bounded`, the state is clean and every node
+/// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift (the test check()
+/// makes, up to its rounding), where radius2 is as it was before this check changed it
+/// (the nodes in `changed` got new radii after the test; `moved` got new references, which
+/// are their positions less the shift). `version_before` and `version_after` number the
+/// reference and radii before and after this check (they differ exactly when `moved` and
+/// `changed` say what changed, or when `rebuilt`: every node's reference and radius is
+/// new, the reference is the state itself and the shift 0). The spans and the pointer are
+/// valid until the next check().
+struct MotionBound {
+  bool bounded = false;
+  bool rebuilt = false;
+  std::uint64_t version_before = 0, version_after = 0;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  const Positions* reference = nullptr;
+  std::span<const double> radius2;  ///< per node, after this check: -1 always checked
+  std::span<const Index> moved, changed;
+};
 
 /// validate_positions() for the successive states of one object, the same reports at a
 /// cost that follows how far the nodes moved.
@@ -64,6 +85,9 @@ class ShapeCheck {
     /// A state whose report is clean has only finite nodes: then it is their box.
     bool has_box = false;
     Eigen::Vector3d box_lo = Eigen::Vector3d::Zero(), box_hi = Eigen::Vector3d::Zero();
+    bool bounded = false;  ///< MotionBound::bounded
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    std::uint64_t version_before = 0, version_after = 0;
   };
 
   /// Throws std::invalid_argument when `node_tets` does not have `num_nodes` rows.
@@ -75,6 +99,8 @@ class ShapeCheck {
   ValidationReport check(const Positions& positions);
 
   [[nodiscard]] const Stats& last() const { return last_; }
+  /// What the last check() proved of its state's nodes (see MotionBound).
+  [[nodiscard]] MotionBound bound() const;
 
  private:
   ValidationReport check_all(const Positions& positions, bool rebuild);
@@ -97,6 +123,7 @@ class ShapeCheck {
   std::vector<Tet> tets_;
   std::vector<Index> index_;
   std::size_t busy_streak_ = 0;  ///< full checks in a row
+  std::uint64_t version_ = 0;    ///< changes of reference_ and radius2_ so far
   Stats last_;
 };
 

@@ -73,6 +73,9 @@ struct SceneObject {
   /// The box of `positions` when the state's shape check made it (every node read, every
   /// node finite): the body then need not read the nodes again for it.
   std::optional<Aabb> state_box;
+  /// `positions` are the state the shape check accepted last (this frame): its bound
+  /// goes to the body with them.
+  bool state_checked = false;
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
@@ -307,6 +310,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     obj.has_state = true;
     obj.moved = true;
     obj.state_box.reset();
+    obj.state_checked = !obj.surface;
     if (!obj.surface && obj.shape_check->last().has_box)
       obj.state_box = Aabb{obj.shape_check->last().box_lo, obj.shape_check->last().box_hi};
   }
@@ -321,7 +325,10 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       continue;
     }
     if (obj->body) {
-      if (obj->moved && obj->state_box)
+      if (obj->moved && obj->state_checked)  // the shape check's bound (and box) of the state
+        obj->body->set_positions(obj->positions, obj->shape_check->bound(),
+                                 obj->state_box ? &*obj->state_box : nullptr);
+      else if (obj->moved && obj->state_box)
         obj->body->set_positions(obj->positions, *obj->state_box);
       else if (obj->moved)
         obj->body->set_positions(obj->positions);
@@ -329,6 +336,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
         obj->body->reuse_positions();  // at rest: its bounds and trees still hold
       obj->moved = false;
     }
+    obj->state_checked = false;
     obj->marked.clear();
     obj->involved = false;
     list.push_back(obj.get());
