@@ -328,9 +328,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       if (obj->moved && obj->state_checked)  // the shape check's bound (and box) of the state
         obj->body->set_positions(obj->positions, obj->shape_check->bound(),
                                  obj->state_box ? &*obj->state_box : nullptr);
-      else if (obj->moved && obj->state_box)
-        obj->body->set_positions(obj->positions, *obj->state_box);
-      else if (obj->moved)
+      else if (obj->moved)  // rest positions (a static object), no check
         obj->body->set_positions(obj->positions);
       else
         obj->body->reuse_positions();  // at rest: its bounds and trees still hold
