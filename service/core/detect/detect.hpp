@@ -87,14 +87,14 @@ class CollisionBody {
   /// clean state are). Saves the pass over the nodes that computes it.
   void set_positions(const Positions& positions, const Aabb& box);
   /// The same, with what the object's shape check proved of these positions
-  /// (ShapeCheck::bound() of the check that accepted them): the
-  /// group boxes of tets_near() then come from the check's references and radii, and no
-  /// pass over the nodes compares them with the body's own references. The same near tets
-  /// either way. A bound that does not follow the last one given (a check in between whose
-  /// bound was not passed on) makes the body take the check's references and radii anew
-  /// and compare the nodes itself that frame.
-  /// `box` is the box of the check's pass when it made one (ShapeCheck::Stats::has_box),
-  /// else null (the body then reads the nodes for it).
+  /// (ShapeCheck::bound() of the check that accepted them): the group boxes of
+  /// tets_near() then come from the check's references and radii, and no pass over the
+  /// nodes compares them with the body's own references. The same near tets either way.
+  /// A bound that does not follow the last one given (a check in between whose bound was
+  /// not passed on) makes the body take the check's references and radii anew and
+  /// compare the nodes itself that frame. `box` is the box of the check's pass when it
+  /// made one (ShapeCheck::Stats::has_box), else null (the body then reads the nodes for
+  /// it).
   void set_positions(const Positions& positions, const MotionBound& bound, const Aabb* box);
   /// Whether this frame's group boxes come from a shape check's bound (no pass over the
   /// nodes for them).

@@ -28,9 +28,10 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
 /// What ShapeCheck::check() proved of the state it was given, for the detection's group
 /// boxes (CollisionBody::set_positions): when `bounded`, the state is clean and every node
 /// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift (the test check()
-/// makes, up to its rounding), where radius2 is as it was before this check changed it
-/// (the nodes in `changed` got new radii after the test; `moved` got new references, which
-/// are their positions less the shift). `version_before` and `version_after` number the
+/// makes, up to its rounding), with radius2 as it was before this check changed it: the
+/// span holds the radii after it, which differ only at the nodes in `changed` (new radii
+/// around the nodes that moved, for the next state); the nodes in `moved` got new
+/// references, their positions less the shift. `version_before` and `version_after` number the
 /// reference and radii before and after this check (they differ exactly when `moved` and
 /// `changed` say what changed, or when `rebuilt`: every node's reference and radius is
 /// new, the reference is the state itself and the shift 0). The spans and the pointer are
@@ -59,6 +60,9 @@ struct MotionBound {
 /// the reference and the radii around them are recomputed. A still or rigidly moving
 /// object costs about one read of its positions (and of the reference) a frame; the tets
 /// near a contact cost what they cost before plus their new radii.
+///
+/// What a check proved of its state's nodes (bound()) lets the detection keep the group
+/// boxes of its cull without reading the nodes again (CollisionBody::set_positions).
 ///
 /// When more than a quarter of the nodes moved (a rotation, a large deformation; on a
 /// large object a quarter of the sampled nodes already tells) every tet is checked as by
