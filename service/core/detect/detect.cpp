@@ -291,7 +291,7 @@ void CollisionBody::apply_bound(const MotionBound& b) {
   if (bound_boxes_.size() != groups) {
     bound_boxes_.assign(groups, Aabb{});
     bound_radius_.assign(groups, 0.0);
-    bound_synced_ = false;
+    bound_version_.reset();
   }
   const auto radius = [&](Index v) {
     const double r2 = b.radius2[static_cast<std::size_t>(v)];
@@ -301,11 +301,10 @@ void CollisionBody::apply_bound(const MotionBound& b) {
     bound_boxes_[static_cast<std::size_t>(g)] = box_of_nodes(*b.reference, group_nodes_.row(g));
   };
   bound_frame_ = false;
-  if (!b.bounded) {  // a busy state: the reference and radii did not change, nor bound it
-    if (b.version_after != b.version_before) bound_synced_ = false;
-    return;
-  }
-  if (b.rebuilt || !bound_synced_ || bound_version_ != b.version_before) {
+  // A busy state (every tet checked, the reference not rebuilt): nothing changed in the
+  // check, and nothing bounds this state.
+  if (!b.bounded) return;
+  if (b.rebuilt || bound_version_ != b.version_before) {
     // Every group anew. Usable this frame only when the reference is the state itself:
     // else the radii the state was tested with are gone.
     detail::for_chunks(groups, 16, [&](std::size_t begin, std::size_t end, std::size_t) {
@@ -338,7 +337,6 @@ void CollisionBody::apply_bound(const MotionBound& b) {
     }
     bound_frame_ = true;
   }
-  bound_synced_ = true;
   bound_version_ = b.version_after;
   bound_shift_ = b.shift;
 }
@@ -441,8 +439,8 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
       // Every node lies within its radius of its reference in the shape check moved by
       // the shift. The check's rounding of that distance and this box's are below 8 eps
       // of the size of the coordinates: 32 eps covers them.
+      const double shift_size = bound_shift_.cwiseAbs().maxCoeff();
       detail::for_chunks(groups, 64, [&](std::size_t begin, std::size_t end, std::size_t) {
-        const double shift_size = bound_shift_.cwiseAbs().maxCoeff();
         for (std::size_t g = begin; g < end; ++g) {
           const Aabb& q = bound_boxes_[g];
           if (q.empty()) {

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -178,14 +179,14 @@ class CollisionBody {
   void finish_motion(const Positions& positions);
   /// The group boxes from a shape check's bound (set_positions() with a MotionBound): per
   /// group the box of its nodes' references in the check and a radius at least each of
-  /// its nodes' radii there since version bound_version_ (it only grows until the next
+  /// its nodes' radii there since the version taken (it only grows until the next
   /// resync); a frame's group box is that box moved by the check's shift and grown by the
   /// radius and the rounding.
   std::vector<Aabb> bound_boxes_;
   std::vector<double> bound_radius_;
-  std::uint64_t bound_version_ = 0;
-  bool bound_synced_ = false;  ///< bound_boxes_ and bound_radius_ hold for bound_version_
-  bool bound_frame_ = false;   ///< this frame's group boxes come from the bound
+  /// The check's version bound_boxes_ and bound_radius_ hold for (none: not taken yet).
+  std::optional<std::uint64_t> bound_version_;
+  bool bound_frame_ = false;  ///< this frame's group boxes come from the bound
   Eigen::Vector3d bound_shift_ = Eigen::Vector3d::Zero();
   std::vector<Index> bound_dirty_;  ///< scratch
   /// Takes in a shape check's bound of this frame's positions (sets bound_frame_).
