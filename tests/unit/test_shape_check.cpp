@@ -289,10 +289,13 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
 // The box the motion pass makes on the way (Stats::box_lo, box_hi) is the box an Aabb
 // extended node by node gets, bit for bit: the detection takes it instead of reading the
 // nodes again. Over small moves (the incremental path) of a box whose extreme
-// coordinates are zeros of both signs, in an order that changes from state to state.
-// Also on an object of several chunks of the parallel pass (11,109 nodes), where each
-// chunk's box is joined to the others': the signs of the zeros at the extremes are drawn
-// anew every state, so the first zero of each extreme moves between chunks.
+// coordinates are zeros of both signs, in an order that changes from state to state: the
+// pass keeps four boxes a chunk, one per node position in its steps of four nodes, and must
+// find the first zero when they disagree. Also on an object of several chunks of the
+// parallel pass (10,626 nodes: four chunks), where each chunk's box is joined to the
+// others': the signs of the zeros at the extremes are drawn anew every state, so the first
+// zero of each extreme moves between chunks. 210 and 10,626 nodes leave two nodes past the
+// last step of four (the pass takes them one by one).
 class MotionPassBox : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
@@ -303,19 +306,32 @@ TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
                                  Eigen::Vector3d(0, 1, 0)));
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  Positions x = f.mesh.positions;
+  const Positions rest = f.mesh.positions;
+  Positions x = rest;
   f.check.check(x);
   const Index n = f.mesh.num_nodes();
+  std::vector<Index> top;  // the nodes of the face y = 1
+  for (Index i = 0; i < n; ++i)
+    if (rest(1, i) == 1.0) top.push_back(i);
+  Index pushed = n - 1;  // (on that face too)
   int boxes = 0;
   for (int step = 0; step < 40; ++step) {
-    // A hair of motion, and the zero coordinates' signs drawn anew.
+    // A hair of motion, and the zero coordinates' signs drawn anew; some of them a hair
+    // inside, so that the first zero of an extreme is not always the first node's.
     for (Index i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c) {
-        if (x(c, i) == 0.0)
-          x(c, i) = u(rng) < 0.5 ? -0.0 : 0.0;
-        else if (step % 5 == 4)
+        if (rest(c, i) == 0.0) {
+          const double draw = u(rng);
+          x(c, i) = draw < 0.4 ? -0.0 : draw < 0.8 ? 0.0 : (c == 1 ? 1e-9 : -1e-9);
+        } else if (step % 5 == 4) {
           x(c, i) += 1e-6 * (u(rng) - 0.5);
+        }
       }
+    // One node of the face y = 1 a hair outside, alone at the extreme: half of the time
+    // the last node (past the last step of four when n is not a multiple of 4).
+    x(1, pushed) = 1.0;
+    pushed = u(rng) < 0.5 ? n - 1 : top[static_cast<std::size_t>(u(rng) * top.size())];
+    x(1, pushed) = 1.0 + 1e-7 * (1.0 + u(rng));
     ASSERT_TRUE(f.both(x).clean());
     if (!f.check.last().has_box) continue;
     ++boxes;
@@ -337,7 +353,8 @@ TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShapeCheck, MotionPassBox,
-                         ::testing::Values(std::tuple(8, 1), std::tuple(21, 1), std::tuple(21, 2)));
+                         ::testing::Values(std::tuple(5, 1), std::tuple(8, 1), std::tuple(21, 1),
+                                           std::tuple(21, 2)));
 
 TEST(ShapeCheck, ThreadCountChangesNothing) {
   const TetMesh mesh = test::ball_mesh(6, 1.0);

@@ -34,6 +34,12 @@ class PointBox {
  public:
   using V2 = double __attribute__((vector_size(16)));
 
+  /// The empty box.
+  PointBox() = default;
+  /// The box with corners lo and hi (3 coordinates each), as given.
+  PointBox(const double* lo, const double* hi)
+      : lo_{lo[0], lo[1]}, hi_{hi[0], hi[1]}, lo_z_(lo[2]), hi_z_(hi[2]) {}
+
   /// x and y of the point at p.
   static V2 xy_of(const double* p) {
     V2 xy;

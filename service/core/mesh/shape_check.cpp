@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -24,25 +25,37 @@ constexpr std::size_t kRadiusChunk = 4096;
 /// Tets per call of detail::motion_radii().
 constexpr std::size_t kRadiusLanes = 8;
 
-/// Objects with more nodes take their shift and first look for a busy state from every
-/// kSampleStride-th node.
+/// Objects with more nodes take their shift, and first look for a busy state, from a sample:
+/// runs of kSampleRun nodes, one every kSamplePeriod nodes. Runs rather than single nodes:
+/// the sample then reads few cache lines it does not use (about a tenth of the pass's time
+/// went to a sample of every 16th node, each on a line of its own).
 constexpr std::size_t kSampleAbove = 8192;
-constexpr std::size_t kSampleStride = 16;
+constexpr std::size_t kSampleRun = 8;
+constexpr std::size_t kSamplePeriod = 512;
 
 /// More than one node in this many moved: check every tet (a rotation, a large step).
 constexpr std::size_t kBusyFraction = 4;
 
-/// Nodes per call of detail::moved_mask().
-constexpr std::size_t kMotionLanes = 8;
+/// Nodes per step of detail::motion_pass().
+constexpr std::size_t kPassStep = 4;
 
-/// Nodes per chunk of the parallel motion pass (a multiple of kMotionLanes: only the last
-/// chunk has a tail).
+/// The chunks of the parallel motion pass: about kPassChunk nodes each, a multiple of
+/// kPassSplit of them (so that two or four threads share them evenly: seven chunks on two
+/// threads took 4/3.5 of the time), each a multiple of kPassStep nodes but the last. The
+/// chunks depend on the number of nodes only; the pass's results do not depend on them.
 constexpr std::size_t kPassChunk = 8192;
-static_assert(kPassChunk % kMotionLanes == 0);
+constexpr std::size_t kPassSplit = 4;
+
+std::size_t pass_chunk(std::size_t n) {
+  if (n <= kPassChunk) return kPassChunk;
+  const std::size_t chunks = (detail::num_chunks(n, kPassChunk) + kPassSplit - 1) / kPassSplit;
+  const std::size_t size = detail::num_chunks(n, chunks * kPassSplit);
+  return detail::num_chunks(size, kPassStep) * kPassStep;
+}
 
 /// Squared motion of the node at x (3 coordinates; reference position r) once `shift` is
 /// removed. The one expression of ShapeCheck::check's motion test, node by node and in
-/// detail::moved_mask's lanes, so both give the same bits.
+/// detail::motion_pass's lanes, so both give the same bits.
 [[gnu::always_inline]] inline double motion2(const double* x, const double* r,
                                              const double* shift) {
   const double dx = x[0] - r[0] - shift[0];
@@ -127,19 +140,98 @@ void motion_radii(const double* x, const Tet* tets, double quality, double* out)
   }
 }
 
-/// Bit l set when node l of the kMotionLanes nodes at x (3 coordinates each; reference
-/// positions r, squared radii r2) moved beyond its radius once `shift` is removed: the
-/// test ShapeCheck::check makes one node at a time (motion2), in plain lane loops the
-/// compiler vectorises (AVX2 and baseline copies, no FMA in either), so the same answer.
-/// A NaN distance is beyond.
+/// The motion pass over nodes [begin, end): appends to `moved` (in order) every node that
+/// moved beyond its radius once `shift` is removed (x, ref: 3 coordinates a node; rad2:
+/// squared radii), and adds every node to `box` in order. Four nodes at a time, in their stored
+/// (x y z x | y z x y | z x y z) layout: the differences, their squares and the box are
+/// taken in that layout, and only the squares are regrouped by coordinate. The same
+/// operations in the same order as motion2 node by node (AVX2 and baseline copies, no FMA
+/// in either), so the same answer; a NaN distance is beyond.
+///
+/// The box in that layout keeps one extreme per coordinate and node position (4k, 4k+1,
+/// 4k+2, 4k+3), each the first in its nodes' order that no later one is strictly beyond,
+/// as PointBox keeps it. Joined, they give PointBox's bits but for one case: the extreme is
+/// a zero and the positions hold zeros of both signs. PointBox keeps the first zero in node
+/// order then, which one more look at the coordinate finds.
 TC_TARGET_CLONES_AVX2
-unsigned moved_mask(const double* x, const double* r, const double* r2, const double* shift) {
-  constexpr int L = static_cast<int>(kMotionLanes);
-  double d2[L];
-  for (int l = 0; l < L; ++l) d2[l] = motion2(x + 3 * l, r + 3 * l, shift);
-  unsigned mask = 0;
-  for (int l = 0; l < L; ++l) mask |= (d2[l] <= r2[l] ? 0u : 1u) << l;
-  return mask;
+void motion_pass(const double* x, const double* ref, const double* rad2, const double* shift,
+                 std::size_t begin, std::size_t end, std::vector<Index>& moved, PointBox& box) {
+  using V4 = double __attribute__((vector_size(32)));
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // The shift in the stored layout of four nodes.
+  const V4 s0 = {shift[0], shift[1], shift[2], shift[0]};
+  const V4 s1 = {shift[1], shift[2], shift[0], shift[1]};
+  const V4 s2 = {shift[2], shift[0], shift[1], shift[2]};
+  V4 lo[3], hi[3];
+  for (int j = 0; j < 3; ++j) lo[j] = V4{kInf, kInf, kInf, kInf}, hi[j] = -lo[j];
+  static_assert(kPassStep == 4);  // three vectors of four coordinates
+  const std::size_t body_end = begin + (end - begin) / kPassStep * kPassStep;
+  for (std::size_t k = begin; k < body_end; k += kPassStep) {
+    const double* xk = x + 3 * k;
+    const double* rk = ref + 3 * k;
+    V4 x0, x1, x2, r0, r1, r2, radius2;  // (memcpy: unaligned loads)
+    std::memcpy(&x0, xk, sizeof x0);
+    std::memcpy(&x1, xk + 4, sizeof x1);
+    std::memcpy(&x2, xk + 8, sizeof x2);
+    std::memcpy(&r0, rk, sizeof r0);
+    std::memcpy(&r1, rk + 4, sizeof r1);
+    std::memcpy(&r2, rk + 8, sizeof r2);
+    std::memcpy(&radius2, rad2 + k, sizeof radius2);
+    const V4 d0 = x0 - r0 - s0, d1 = x1 - r1 - s1, d2 = x2 - r2 - s2;
+    const V4 q0 = d0 * d0, q1 = d1 * d1, q2 = d2 * d2;
+    const V4 qx =
+        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 0, 3, 6, 7), q2, 0, 1, 2, 5);
+    const V4 qy =
+        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 1, 4, 7, 7), q2, 0, 1, 2, 6);
+    const V4 qz =
+        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 2, 5, 5, 5), q2, 0, 1, 4, 7);
+    const V4 dist2 = qx + qy + qz;
+    unsigned mask = 0;
+    for (int l = 0; l < 4; ++l) mask |= (dist2[l] <= radius2[l] ? 0u : 1u) << l;
+    for (; mask != 0; mask &= mask - 1)
+      moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(mask))));
+    lo[0] = x0 < lo[0] ? x0 : lo[0];
+    lo[1] = x1 < lo[1] ? x1 : lo[1];
+    lo[2] = x2 < lo[2] ? x2 : lo[2];
+    hi[0] = hi[0] < x0 ? x0 : hi[0];
+    hi[1] = hi[1] < x1 ? x1 : hi[1];
+    hi[2] = hi[2] < x2 ? x2 : hi[2];
+  }
+  if (body_end > begin) {
+    // Coordinate c of node position p sits in lane (3p + c) % 4 of vector (3p + c) / 4.
+    const auto lane = [](const V4* v, int p, int c) {
+      const int f = 3 * p + c;
+      return v[f / 4][f % 4];
+    };
+    const auto mixed_zeros = [&](const V4* v, int c) {  // extremes that are zeros of both signs
+      bool positive = false, negative = false;
+      for (int p = 0; p < 4; ++p)
+        if (const double e = lane(v, p, c); e == 0.0)
+          (std::signbit(e) ? negative : positive) = true;
+      return positive && negative;
+    };
+    const auto first_zero = [&](int c) {  // the nodes hold one: an extreme is zero
+      std::size_t k = begin;
+      while (k + 1 < body_end && x[3 * k + c] != 0.0) ++k;
+      return x[3 * k + c];
+    };
+    double box_lo[3], box_hi[3];
+    for (int c = 0; c < 3; ++c) {
+      double l = kInf, h = -kInf;
+      for (int p = 0; p < 4; ++p) {
+        l = lane(lo, p, c) < l ? lane(lo, p, c) : l;
+        h = h < lane(hi, p, c) ? lane(hi, p, c) : h;
+      }
+      box_lo[c] = l == 0.0 && mixed_zeros(lo, c) ? first_zero(c) : l;
+      box_hi[c] = h == 0.0 && mixed_zeros(hi, c) ? first_zero(c) : h;
+    }
+    box.add(PointBox(box_lo, box_hi));
+  }
+  for (std::size_t k = body_end; k < end; ++k) {
+    if (!(motion2(x + 3 * k, ref + 3 * k, shift) <= rad2[k]))
+      moved.push_back(static_cast<Index>(k));
+    box.add(x + 3 * k);
+  }
 }
 
 }  // namespace detail
@@ -252,17 +344,23 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   if (reference_.cols() == 0) return check_all(positions, true);
 
   // A translation changes no tet's shape: the displacements are compared after removing
-  // one shift, the mean displacement of the nodes (of every 16th on a large object: any
+  // one shift, the mean displacement of the nodes (of a sample on a large object: any
   // common shift is as sound).
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
-  const std::size_t stride = n > kSampleAbove ? kSampleStride : 1;
+  const bool sampled = n > kSampleAbove;
+  const std::size_t run = sampled ? kSampleRun : 1, period = sampled ? kSamplePeriod : 1;
   const double* x = positions.data();
   const double* r = reference_.data();
-  double shift[3] = {0.0, 0.0, 0.0};
+  double sx = 0.0, sy = 0.0, sz = 0.0;
   std::size_t samples = 0;
-  for (std::size_t i = 0; i < n; i += stride, ++samples)
-    for (int c = 0; c < 3; ++c) shift[c] += x[3 * i + c] - r[3 * i + c];
-  for (double& s : shift) s /= static_cast<double>(std::max<std::size_t>(samples, 1));
+  for (std::size_t b = 0; b < n; b += period)
+    for (std::size_t i = b; i < std::min(b + run, n); ++i, ++samples) {
+      sx += x[3 * i] - r[3 * i];
+      sy += x[3 * i + 1] - r[3 * i + 1];
+      sz += x[3 * i + 2] - r[3 * i + 2];
+    }
+  const double count = static_cast<double>(std::max<std::size_t>(samples, 1));
+  const double shift[3] = {sx / count, sy / count, sz / count};
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
   const auto beyond = [&](std::size_t i) {
@@ -272,43 +370,27 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     ++busy_streak_;
     return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
   };
-  if (stride > 1) {  // a rotation shows in the sample: no need to look at every node
+  if (sampled) {  // a rotation shows in the sample: no need to look at every node
     std::size_t moved = 0;
-    for (std::size_t i = 0; i < n; i += stride) moved += beyond(i) ? 1 : 0;
+    for (std::size_t b = 0; b < n; b += period)
+      for (std::size_t i = b; i < std::min(b + run, n); ++i) moved += beyond(i) ? 1 : 0;
     if (kBusyFraction * moved > samples) return busy();
   }
   {
     // The box of the positions on the way: the nodes are in cache, and the detection
-    // then need not read them again. In fixed chunks of nodes (one for a small object),
-    // each with its own list and box, joined in chunk order: moved_ comes sorted, and
+    // then need not read them again. In chunks of nodes (pass_chunk(); one for a small
+    // object), each with its own list and box, joined in chunk order: moved_ comes sorted, and
     // the box is the node-by-node box (a later chunk's extreme replaces the earlier one
     // only when strictly beyond it, as a later node's does).
-    const std::size_t chunks = detail::num_chunks(n, kPassChunk);
+    const std::size_t chunk = pass_chunk(n);
+    const std::size_t chunks = detail::num_chunks(n, chunk);
     detail::reset_parts(moved_parts_, chunks);
     pass_boxes_.assign(chunks, PointBox{});
-    const auto pass = [&](std::size_t begin, std::size_t end, std::size_t c) {
-      // Local copies: the calls below could write the captures as far as the compiler
-      // knows, which would reload them every call.
-      const double* const xc = x;
-      const double* const rc = r;
-      const double* const r2 = radius2_.data();
-      const double sc[3] = {shift[0], shift[1], shift[2]};
-      std::vector<Index>& moved = moved_parts_[c];
+    detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      std::size_t k = begin;
-      for (; k + kMotionLanes <= end; k += kMotionLanes) {  // in order: sorted
-        for (unsigned m = detail::moved_mask(xc + 3 * k, rc + 3 * k, r2 + k, sc); m != 0;
-             m &= m - 1)
-          moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(m))));
-        for (std::size_t l = 0; l < kMotionLanes; ++l) box.add(xc + 3 * (k + l));
-      }
-      for (; k < end; ++k) {
-        if (beyond(k)) moved.push_back(static_cast<Index>(k));
-        box.add(xc + 3 * k);
-      }
+      detail::motion_pass(x, r, radius2_.data(), shift, begin, end, moved_parts_[c], box);
       pass_boxes_[c] = box;
-    };
-    detail::for_chunks(n, kPassChunk, pass);
+    });
     detail::concat_parts(moved_parts_, chunks, moved_);
     PointBox box;
     for (const PointBox& part : pass_boxes_) box.add(part);
