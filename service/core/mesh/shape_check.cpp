@@ -6,6 +6,8 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+
+#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -162,8 +164,8 @@ void motion_pass(const double* x, const double* ref, const double* rad2, const d
   const V4 s0 = {shift[0], shift[1], shift[2], shift[0]};
   const V4 s1 = {shift[1], shift[2], shift[0], shift[1]};
   const V4 s2 = {shift[2], shift[0], shift[1], shift[2]};
-  V4 lo[3], hi[3];
-  for (int j = 0; j < 3; ++j) lo[j] = V4{kInf, kInf, kInf, kInf}, hi[j] = -lo[j];
+  // The box's extremes in that layout (named, not an array: kept in registers).
+  V4 lo0 = {kInf, kInf, kInf, kInf}, lo1 = lo0, lo2 = lo0, hi0 = -lo0, hi1 = hi0, hi2 = hi0;
   static_assert(kPassStep == 4);  // three vectors of four coordinates
   const std::size_t body_end = begin + (end - begin) / kPassStep * kPassStep;
   for (std::size_t k = begin; k < body_end; k += kPassStep) {
@@ -186,18 +188,23 @@ void motion_pass(const double* x, const double* ref, const double* rad2, const d
     const V4 qz =
         __builtin_shufflevector(__builtin_shufflevector(q0, q1, 2, 5, 5, 5), q2, 0, 1, 4, 7);
     const V4 dist2 = qx + qy + qz;
-    unsigned mask = 0;
-    for (int l = 0; l < 4; ++l) mask |= (dist2[l] <= radius2[l] ? 0u : 1u) << l;
-    for (; mask != 0; mask &= mask - 1)
+    // The lanes within their radius, as bits (SSE2's movemask on both halves: the
+    // baseline has it, and the AVX2 copy gets it too).
+    const V4 within = reinterpret_cast<V4>(dist2 <= radius2);
+    const unsigned inside =
+        static_cast<unsigned>(_mm_movemask_pd(__builtin_shufflevector(within, within, 0, 1)) |
+                              _mm_movemask_pd(__builtin_shufflevector(within, within, 2, 3)) << 2);
+    for (unsigned mask = ~inside & 15u; mask != 0; mask &= mask - 1)
       moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(mask))));
-    lo[0] = x0 < lo[0] ? x0 : lo[0];
-    lo[1] = x1 < lo[1] ? x1 : lo[1];
-    lo[2] = x2 < lo[2] ? x2 : lo[2];
-    hi[0] = hi[0] < x0 ? x0 : hi[0];
-    hi[1] = hi[1] < x1 ? x1 : hi[1];
-    hi[2] = hi[2] < x2 ? x2 : hi[2];
+    lo0 = x0 < lo0 ? x0 : lo0;
+    lo1 = x1 < lo1 ? x1 : lo1;
+    lo2 = x2 < lo2 ? x2 : lo2;
+    hi0 = hi0 < x0 ? x0 : hi0;
+    hi1 = hi1 < x1 ? x1 : hi1;
+    hi2 = hi2 < x2 ? x2 : hi2;
   }
   if (body_end > begin) {
+    const V4 lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     // Coordinate c of node position p sits in lane (3p + c) % 4 of vector (3p + c) / 4.
     const auto lane = [](const V4* v, int p, int c) {
       const int f = 3 * p + c;
