@@ -14,6 +14,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/common/cpu_dispatch.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/topology.hpp"
 #include "test_meshes.hpp"
@@ -237,7 +238,15 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
   }
 }
 
-TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
+/// Runs the x86-64 baseline copy of the vector kernels when the parameter says so (and the
+/// copy this CPU picks after the test, even when an assertion failed).
+class BothKernels : public ::testing::TestWithParam<bool> {
+ protected:
+  void SetUp() override { detail::use_baseline_kernels(GetParam()); }
+  void TearDown() override { detail::use_baseline_kernels(false); }
+};
+
+TEST_P(BothKernels, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   // Each step moves a random patch of nodes by a random amount, from a hair to far beyond
   // an edge; some steps are rejected, others rotate or translate the whole object.
   Fixture f(test::ball_mesh(4, 0.2));
@@ -286,6 +295,9 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   EXPECT_GT(bounded, 300u);      // and bounds (turns: busy states, some not rebuilt)
 }
 
+INSTANTIATE_TEST_SUITE_P(ShapeCheck, BothKernels, ::testing::Bool(),
+                         [](const auto& p) { return p.param ? "Baseline" : "ThisCpu"; });
+
 // The box the motion pass makes on the way (Stats::box_lo, box_hi) is the box an Aabb
 // extended node by node gets, bit for bit: the detection takes it instead of reading the
 // nodes again. Over small moves (the incremental path) of a box whose extreme
@@ -296,10 +308,14 @@ TEST(ShapeCheck, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
 // others': the signs of the zeros at the extremes are drawn anew every state, so the first
 // zero of each extreme moves between chunks. 210 and 10,626 nodes leave two nodes past the
 // last step of four (the pass takes them one by one).
-class MotionPassBox : public ::testing::TestWithParam<std::tuple<int, int>> {};
+class MotionPassBox : public ::testing::TestWithParam<std::tuple<int, int, bool>> {
+ protected:
+  void TearDown() override { detail::use_baseline_kernels(false); }
+};
 
 TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
-  const auto [cells, threads] = GetParam();
+  const auto [cells, threads, baseline] = GetParam();
+  detail::use_baseline_kernels(baseline);
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(threads));
   Fixture f(test::structured_box(cells + 1, cells, cells - 1, Eigen::Vector3d(-1, 0, -1),
@@ -353,8 +369,9 @@ TEST_P(MotionPassBox, IsTheNodeByNodeBoxBitForBit) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShapeCheck, MotionPassBox,
-                         ::testing::Values(std::tuple(5, 1), std::tuple(8, 1), std::tuple(21, 1),
-                                           std::tuple(21, 2)));
+                         ::testing::Values(std::tuple(5, 1, false), std::tuple(8, 1, false),
+                                           std::tuple(21, 1, false), std::tuple(21, 2, false),
+                                           std::tuple(5, 1, true), std::tuple(21, 2, true)));
 
 TEST(ShapeCheck, ThreadCountChangesNothing) {
   const TetMesh mesh = test::ball_mesh(6, 1.0);

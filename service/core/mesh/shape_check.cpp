@@ -13,6 +13,7 @@
 #include <string>
 
 #include "core/common/chunked.hpp"
+#include "core/common/cpu_dispatch.hpp"
 #include "core/common/parallel_chunks.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/mesh/geometry.hpp"
@@ -142,103 +143,35 @@ void motion_radii(const double* x, const Tet* tets, double quality, double* out)
   }
 }
 
-/// The motion pass over nodes [begin, end): appends to `moved` (in order) every node that
-/// moved beyond its radius once `shift` is removed (x, ref: 3 coordinates a node; rad2:
-/// squared radii), and adds every node to `box` in order. Four nodes at a time, in their stored
-/// (x y z x | y z x y | z x y z) layout: the differences, their squares and the box are
-/// taken in that layout, and only the squares are regrouped by coordinate. The same
-/// operations in the same order as motion2 node by node (AVX2 and baseline copies, no FMA
-/// in either), so the same answer; a NaN distance is beyond.
-///
-/// The box in that layout keeps one extreme per coordinate and node position (4k, 4k+1,
-/// 4k+2, 4k+3), each the first in its nodes' order that no later one is strictly beyond,
-/// as PointBox keeps it. Joined, they give PointBox's bits but for one case: the extreme is
-/// a zero and the positions hold zeros of both signs. PointBox keeps the first zero in node
-/// order then, which one more look at the coordinate finds.
-TC_TARGET_CLONES_AVX2
+/// Appends node k + l to `moved` for each bit l of mask, in order.
+[[gnu::noinline]] void append_moved(std::vector<Index>& moved, std::size_t k, unsigned mask) {
+  for (; mask != 0; mask &= mask - 1)
+    moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(mask))));
+}
+
+namespace baseline {
+#include "core/mesh/motion_pass.inc"
+}  // namespace baseline
+
+}  // namespace detail
+
+#if TC_HAS_AVX2_REGION
+TC_AVX2_REGION_BEGIN
+namespace detail::avx2 {
+#include "core/mesh/motion_pass.inc"
+}  // namespace detail::avx2
+TC_AVX2_REGION_END
+#endif
+
+namespace detail {
+
+/// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* ref, const double* rad2, const double* shift,
                  std::size_t begin, std::size_t end, std::vector<Index>& moved, PointBox& box) {
-  using V4 = double __attribute__((vector_size(32)));
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  // The shift in the stored layout of four nodes.
-  const V4 s0 = {shift[0], shift[1], shift[2], shift[0]};
-  const V4 s1 = {shift[1], shift[2], shift[0], shift[1]};
-  const V4 s2 = {shift[2], shift[0], shift[1], shift[2]};
-  // The box's extremes in that layout (named, not an array: kept in registers).
-  V4 lo0 = {kInf, kInf, kInf, kInf}, lo1 = lo0, lo2 = lo0, hi0 = -lo0, hi1 = hi0, hi2 = hi0;
-  static_assert(kPassStep == 4);  // three vectors of four coordinates
-  const std::size_t body_end = begin + (end - begin) / kPassStep * kPassStep;
-  for (std::size_t k = begin; k < body_end; k += kPassStep) {
-    const double* xk = x + 3 * k;
-    const double* rk = ref + 3 * k;
-    V4 x0, x1, x2, r0, r1, r2, radius2;  // (memcpy: unaligned loads)
-    std::memcpy(&x0, xk, sizeof x0);
-    std::memcpy(&x1, xk + 4, sizeof x1);
-    std::memcpy(&x2, xk + 8, sizeof x2);
-    std::memcpy(&r0, rk, sizeof r0);
-    std::memcpy(&r1, rk + 4, sizeof r1);
-    std::memcpy(&r2, rk + 8, sizeof r2);
-    std::memcpy(&radius2, rad2 + k, sizeof radius2);
-    const V4 d0 = x0 - r0 - s0, d1 = x1 - r1 - s1, d2 = x2 - r2 - s2;
-    const V4 q0 = d0 * d0, q1 = d1 * d1, q2 = d2 * d2;
-    const V4 qx =
-        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 0, 3, 6, 7), q2, 0, 1, 2, 5);
-    const V4 qy =
-        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 1, 4, 7, 7), q2, 0, 1, 2, 6);
-    const V4 qz =
-        __builtin_shufflevector(__builtin_shufflevector(q0, q1, 2, 5, 5, 5), q2, 0, 1, 4, 7);
-    const V4 dist2 = qx + qy + qz;
-    // The lanes within their radius, as bits (SSE2's movemask on both halves: the
-    // baseline has it, and the AVX2 copy gets it too).
-    const V4 within = reinterpret_cast<V4>(dist2 <= radius2);
-    const unsigned inside =
-        static_cast<unsigned>(_mm_movemask_pd(__builtin_shufflevector(within, within, 0, 1)) |
-                              _mm_movemask_pd(__builtin_shufflevector(within, within, 2, 3)) << 2);
-    for (unsigned mask = ~inside & 15u; mask != 0; mask &= mask - 1)
-      moved.push_back(static_cast<Index>(k + static_cast<std::size_t>(std::countr_zero(mask))));
-    lo0 = x0 < lo0 ? x0 : lo0;
-    lo1 = x1 < lo1 ? x1 : lo1;
-    lo2 = x2 < lo2 ? x2 : lo2;
-    hi0 = hi0 < x0 ? x0 : hi0;
-    hi1 = hi1 < x1 ? x1 : hi1;
-    hi2 = hi2 < x2 ? x2 : hi2;
-  }
-  if (body_end > begin) {
-    const V4 lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
-    // Coordinate c of node position p sits in lane (3p + c) % 4 of vector (3p + c) / 4.
-    const auto lane = [](const V4* v, int p, int c) {
-      const int f = 3 * p + c;
-      return v[f / 4][f % 4];
-    };
-    const auto mixed_zeros = [&](const V4* v, int c) {  // extremes that are zeros of both signs
-      bool positive = false, negative = false;
-      for (int p = 0; p < 4; ++p)
-        if (const double e = lane(v, p, c); e == 0.0)
-          (std::signbit(e) ? negative : positive) = true;
-      return positive && negative;
-    };
-    const auto first_zero = [&](int c) {  // the nodes hold one: an extreme is zero
-      std::size_t k = begin;
-      while (k + 1 < body_end && x[3 * k + c] != 0.0) ++k;
-      return x[3 * k + c];
-    };
-    double box_lo[3], box_hi[3];
-    for (int c = 0; c < 3; ++c) {
-      double l = kInf, h = -kInf;
-      for (int p = 0; p < 4; ++p) {
-        l = lane(lo, p, c) < l ? lane(lo, p, c) : l;
-        h = h < lane(hi, p, c) ? lane(hi, p, c) : h;
-      }
-      box_lo[c] = l == 0.0 && mixed_zeros(lo, c) ? first_zero(c) : l;
-      box_hi[c] = h == 0.0 && mixed_zeros(hi, c) ? first_zero(c) : h;
-    }
-    box.add(PointBox(box_lo, box_hi));
-  }
-  for (std::size_t k = body_end; k < end; ++k) {
-    if (!(motion2(x + 3 * k, ref + 3 * k, shift) <= rad2[k]))
-      moved.push_back(static_cast<Index>(k));
-    box.add(x + 3 * k);
-  }
+#if TC_HAS_AVX2_REGION
+  if (use_avx2_kernels()) return avx2::motion_pass(x, ref, rad2, shift, begin, end, moved, box);
+#endif
+  baseline::motion_pass(x, ref, rad2, shift, begin, end, moved, box);
 }
 
 }  // namespace detail
