@@ -22,6 +22,7 @@
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/shape_check.hpp"
 #include "core/mesh/validate.hpp"
+#include "kernel_copies.hpp"
 #include "sanitizer.hpp"
 #include "test_meshes.hpp"
 
@@ -666,7 +667,11 @@ TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
 // next frame refits every cluster) and put a NaN node far from the tool, the near tets
 // are those a new body (first frame: groups) gives, and the contacts those of the full
 // pass.
-TEST(Detect, ClusterGroupsGiveTheNearTetsOfEveryClusterWhateverLastFrameDid) {
+// (With each copy of the kernels: the body's comparison of its nodes with their references
+// runs in AVX2 and baseline copies.)
+using test::BothKernels;
+
+TEST_P(BothKernels, ClusterGroupsGiveTheNearTetsOfEveryClusterWhateverLastFrameDid) {
   const Object large(test::structured_box(24, 24, 8, Vector3d(0, 0, 0), Vector3d(1, 1, 0.3)));
   const TetMesh small_tool = test::ball_mesh(3, 0.06);
   const TetMesh wide_tool = test::ball_mesh(3, 0.9);
@@ -718,6 +723,8 @@ TEST(Detect, ClusterGroupsGiveTheNearTetsOfEveryClusterWhateverLastFrameDid) {
   EXPECT_LT(fewest * 10, large.mesh.tets.size()) << fewest;
   EXPECT_GT(most * 2, large.mesh.tets.size()) << most;
 }
+
+INSTANTIATE_TEST_SUITE_P(Detect, BothKernels, ::testing::Bool(), test::kernel_copy_name);
 
 // tets_near()'s promise, checked tet by tet: every tet whose box meets the region is
 // near. With node numbers in no spatial order (a mesher's, shuffled), frames that do not

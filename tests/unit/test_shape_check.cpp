@@ -17,6 +17,7 @@
 #include "core/common/cpu_dispatch.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/topology.hpp"
+#include "kernel_copies.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -73,7 +74,10 @@ Eigen::Vector3d random_unit(std::mt19937_64& rng) {
   return v.normalized();
 }
 
-TEST(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
+// The radii with each copy of their kernel (AVX2, baseline).
+class CertifiedMotionRadius : public test::BothKernels {};
+
+TEST_P(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
   const TetMesh m = test::regular_tet();
   const Tet t = m.tets[0];
   const double edge = std::sqrt(8.0);
@@ -86,7 +90,7 @@ TEST(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
   EXPECT_NEAR(certified_motion_radius(far, t, 0.01), 1e-3 * r, 1e-9 * r);
 }
 
-TEST(CertifiedMotionRadius, NoMotionWithinItLeavesAGoodTet) {
+TEST_P(CertifiedMotionRadius, NoMotionWithinItLeavesAGoodTet) {
   std::mt19937_64 rng(13);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   int tested = 0;
@@ -124,6 +128,8 @@ TEST(CertifiedMotionRadius, NoMotionWithinItLeavesAGoodTet) {
   }
   EXPECT_GT(worst, 0.01);
 }
+
+INSTANTIATE_TEST_SUITE_P(Kernels, CertifiedMotionRadius, ::testing::Bool(), test::kernel_copy_name);
 
 TEST(ShapeCheck, TheSameReportsAsTheFullCheckForEveryKindOfMotion) {
   Fixture f(test::structured_box(6, 5, 4, {0, 0, 0}, {0.6, 0.5, 0.4}));
@@ -238,13 +244,7 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
   }
 }
 
-/// Runs the x86-64 baseline copy of the vector kernels when the parameter says so (and the
-/// copy this CPU picks after the test, even when an assertion failed).
-class BothKernels : public ::testing::TestWithParam<bool> {
- protected:
-  void SetUp() override { detail::use_baseline_kernels(GetParam()); }
-  void TearDown() override { detail::use_baseline_kernels(false); }
-};
+using test::BothKernels;
 
 TEST_P(BothKernels, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   // Each step moves a random patch of nodes by a random amount, from a hair to far beyond
@@ -295,8 +295,7 @@ TEST_P(BothKernels, ARandomWalkOfDeformationsGivesTheFullChecksReports) {
   EXPECT_GT(bounded, 300u);      // and bounds (turns: busy states, some not rebuilt)
 }
 
-INSTANTIATE_TEST_SUITE_P(ShapeCheck, BothKernels, ::testing::Bool(),
-                         [](const auto& p) { return p.param ? "Baseline" : "ThisCpu"; });
+INSTANTIATE_TEST_SUITE_P(ShapeCheck, BothKernels, ::testing::Bool(), test::kernel_copy_name);
 
 // The box the motion pass makes on the way (Stats::box_lo, box_hi) is the box an Aabb
 // extended node by node gets, bit for bit: the detection takes it instead of reading the

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "core/mesh/geometry.hpp"
+#include "kernel_copies.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -159,7 +160,9 @@ TEST(Validate, ParallelChunksReportLikeASerialScan) {
 // tets, randomly placed, scaled and oriented, with qualities just around every threshold
 // (within the fast test's margin and outside it), well-shaped ones, and a multiple of the
 // lane width plus a remainder.
-TEST(Validate, WithoutTheSmallestQualityTheDefectsAreTheSame) {
+using test::BothKernels;
+
+TEST_P(BothKernels, WithoutTheSmallestQualityTheDefectsAreTheSame) {
   const ValidationOptions exact_opt = [] {
     ValidationOptions o;
     o.max_listed = 100000;
@@ -223,6 +226,8 @@ TEST(Validate, WithoutTheSmallestQualityTheDefectsAreTheSame) {
     EXPECT_TRUE(std::isnan(fast.min_quality));
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Validate, BothKernels, ::testing::Bool(), test::kernel_copy_name);
 
 // The per-frame check visits the tets in a spatial order (make_tet_check_order); the
 // report must be that of index order for any order: counts, the smallest indices listed,

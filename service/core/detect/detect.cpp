@@ -14,6 +14,7 @@
 #include <string>
 
 #include "core/common/chunked.hpp"
+#include "core/common/cpu_dispatch.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/detect/edge_hits.hpp"
 #include "core/mesh/geometry.hpp"
@@ -23,15 +24,15 @@
 namespace tc {
 namespace detail {
 
-/// Nodes per call of beyond_reach_mask().
+/// Nodes per call of beyond_reach_lanes().
 constexpr std::size_t kReachLanes = 8;
 
 /// Bit l set when node l of the kReachLanes nodes at p (3 coordinates each; references
 /// at q) is further than r from its reference along an axis, or not finite there or at
 /// the reference: CollisionBody::compare_chunk's test of one node, in plain lane loops
-/// the compiler vectorises (AVX2 and baseline copies).
-TC_TARGET_CLONES_AVX2
-unsigned beyond_reach_mask(const double* p, const double* q, double r) {
+/// the compiler vectorises (AVX2 and baseline copies, beyond_reach_kernel()).
+[[gnu::always_inline]] inline unsigned beyond_reach_lanes(const double* p, const double* q,
+                                                          double r) {
   constexpr int L = static_cast<int>(kReachLanes);
   double far[3 * L];  // 1 where a coordinate is beyond reach (NaN: beyond)
   for (int k = 0; k < 3 * L; ++k) far[k] = std::abs(p[k] - q[k]) <= r ? 0.0 : 1.0;
@@ -39,6 +40,24 @@ unsigned beyond_reach_mask(const double* p, const double* q, double r) {
   for (int l = 0; l < L; ++l)
     mask |= (far[3 * l] + far[3 * l + 1] + far[3 * l + 2] != 0.0 ? 1u : 0u) << l;
   return mask;
+}
+
+/// The two copies of beyond_reach_lanes(), and the one this CPU runs (use_avx2_kernels()).
+unsigned beyond_reach_baseline(const double* p, const double* q, double r) {
+  return beyond_reach_lanes(p, q, r);
+}
+#if TC_HAS_AVX2_REGION
+__attribute__((target("avx2"))) unsigned beyond_reach_avx2(const double* p, const double* q,
+                                                           double r) {
+  return beyond_reach_lanes(p, q, r);
+}
+#endif
+using BeyondReach = unsigned (*)(const double*, const double*, double);
+BeyondReach beyond_reach_kernel() {
+#if TC_HAS_AVX2_REGION
+  if (use_avx2_kernels()) return beyond_reach_avx2;
+#endif
+  return beyond_reach_baseline;
 }
 
 }  // namespace detail
@@ -507,9 +526,10 @@ void CollisionBody::compare_chunk(const double* xyz, std::size_t begin, std::siz
   moved.clear();
   const double* ref = ref_.data();
   const double r = reach_;
+  const detail::BeyondReach beyond_reach = detail::beyond_reach_kernel();
   std::size_t i = begin;
   for (; i + detail::kReachLanes <= end; i += detail::kReachLanes)  // in order
-    for (unsigned m = detail::beyond_reach_mask(xyz + 3 * i, ref + 3 * i, r); m != 0; m &= m - 1)
+    for (unsigned m = beyond_reach(xyz + 3 * i, ref + 3 * i, r); m != 0; m &= m - 1)
       moved.push_back(static_cast<Index>(i + static_cast<std::size_t>(std::countr_zero(m))));
   for (; i < end; ++i) {
     const double* p = xyz + 3 * i;

@@ -25,7 +25,7 @@ namespace {
 /// Items per chunk of the parallel radius loops.
 constexpr std::size_t kRadiusChunk = 4096;
 
-/// Tets per call of detail::motion_radii().
+/// Tets per call of detail::motion_radii_lanes().
 constexpr std::size_t kRadiusLanes = 8;
 
 /// Objects with more nodes take their shift, and first look for a busy state, from a sample:
@@ -72,9 +72,9 @@ std::size_t pass_chunk(std::size_t n) {
 namespace detail {
 
 /// certified_motion_radius() of kRadiusLanes tets at once, in plain lane loops the compiler
-/// vectorises (AVX2 and baseline copies; the same operations in the same order in every
-/// copy and lane, so the same bits). The bound: see the header. q^2 = 432 (6V)^2 / l2^3
-/// with l2 the sum of the six squared edge lengths, so the tet keeps q >= s while
+/// vectorises (AVX2 and baseline copies, motion_radii_kernel(); the same operations in the
+/// same order in every copy and lane, so the same bits). The bound: see the header. q^2 = 432
+/// (6V)^2 / l2^3 with l2 the sum of the six squared edge lengths, so the tet keeps q >= s while
 /// sqrt(432) W(d) >= s L(d)^(3/2), W and L the bounds on 6V and l2 after each node moved
 /// by d:
 ///   W(d) = v6 - grad d - 4 arms d^2 - 8 d^3,   L(d) = l2 + 4 lengths d + 24 d^2.
@@ -83,8 +83,8 @@ namespace detail {
 /// in closed form. W > 0 needs d < v6 / grad; of a few h below that, the best is taken.
 /// The margin on s (0.1% and 1e-6) is far above the rounding of this bound and of
 /// tet_quality().
-TC_TARGET_CLONES_AVX2
-void motion_radii(const double* x, const Tet* tets, double quality, double* out) {
+[[gnu::always_inline]] inline void motion_radii_lanes(const double* x, const Tet* tets,
+                                                      double quality, double* out) {
   constexpr int L = static_cast<int>(kRadiusLanes);
   double p[4][3][L];
   for (int l = 0; l < L; ++l)
@@ -143,6 +143,24 @@ void motion_radii(const double* x, const Tet* tets, double quality, double* out)
   }
 }
 
+/// The two copies of motion_radii_lanes(), and the one this CPU runs (use_avx2_kernels()).
+void motion_radii_baseline(const double* x, const Tet* tets, double quality, double* out) {
+  motion_radii_lanes(x, tets, quality, out);
+}
+#if TC_HAS_AVX2_REGION
+__attribute__((target("avx2"))) void motion_radii_avx2(const double* x, const Tet* tets,
+                                                       double quality, double* out) {
+  motion_radii_lanes(x, tets, quality, out);
+}
+#endif
+using MotionRadii = void (*)(const double*, const Tet*, double, double*);
+MotionRadii motion_radii_kernel() {
+#if TC_HAS_AVX2_REGION
+  if (use_avx2_kernels()) return motion_radii_avx2;
+#endif
+  return motion_radii_baseline;
+}
+
 /// Appends node k + l to `moved` for each bit l of mask, in order.
 [[gnu::noinline]] void append_moved(std::vector<Index>& moved, std::size_t k, unsigned mask) {
   for (; mask != 0; mask &= mask - 1)
@@ -180,7 +198,7 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
   Tet batch[kRadiusLanes];
   for (Tet& t : batch) t = tet;
   double out[kRadiusLanes];
-  detail::motion_radii(positions.data(), batch, quality, out);
+  detail::motion_radii_kernel()(positions.data(), batch, quality, out);
   return out[0];
 }
 
@@ -190,6 +208,7 @@ namespace {
 template <typename PlaceOf>
 void compute_radii(const Positions& x, const std::vector<Tet>& tets, double quality,
                    std::size_t count, const PlaceOf& place_of, std::vector<double>& radius) {
+  const detail::MotionRadii motion_radii = detail::motion_radii_kernel();
   detail::for_chunks(count, kRadiusChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
     Tet batch[kRadiusLanes];
     double out[kRadiusLanes];
@@ -197,7 +216,7 @@ void compute_radii(const Positions& x, const std::vector<Tet>& tets, double qual
       const std::size_t lanes = std::min<std::size_t>(kRadiusLanes, end - j);
       for (std::size_t l = 0; l < kRadiusLanes; ++l)
         batch[l] = tets[place_of(j + std::min(l, lanes - 1))];
-      detail::motion_radii(x.data(), batch, quality, out);
+      motion_radii(x.data(), batch, quality, out);
       for (std::size_t l = 0; l < lanes; ++l) radius[place_of(j + l)] = out[l];
     }
   });

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/common/cpu_dispatch.hpp"
 #include "core/common/parallel_chunks.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/mesh/geometry.hpp"
@@ -21,17 +22,17 @@ namespace {
 /// vanishes, small enough that 2 threads share a 300k-tet object evenly.
 constexpr std::size_t kShapeChunk = 8192;
 
-/// Tets per block of surely_not_slivers(): one SIMD lane each.
+/// Tets per block of not_slivers_lanes(): one SIMD lane each.
 constexpr int kLanes = 8;
 
-/// Margin on q^2 of surely_not_slivers(): 1e-9 against a rounding error of at most
+/// Margin on q^2 of not_slivers_lanes(): 1e-9 against a rounding error of at most
 /// ~1.2e-11; tets within it of the threshold (q < 1.000005 s at s = 0.01) take the exact
 /// path.
 constexpr double kSquaredQualityMargin = 1e-9;
 
 }  // namespace
 
-namespace detail {
+namespace {
 
 /// For kLanes tets at once, whether each surely has quality >= s (s2_margin = s^2 +
 /// kSquaredQualityMargin), from one triple product and six squared edge lengths, without
@@ -43,9 +44,10 @@ namespace detail {
 /// itself by less). A tet that passes with the margin has a computed tet_quality() >= s
 /// as well; the others take tet_quality() itself, so the report does not depend on this
 /// test's bits. The lanes are plain loops the compiler vectorises, once for AVX2 and once
-/// for the x86-64 baseline; one tet at a time the loop was latency-bound (~70 cycles).
-TC_TARGET_CLONES_AVX2
-unsigned surely_not_slivers(const double* x, const Tet* tets, double s2_margin) {
+/// for the x86-64 baseline (not_slivers_kernel() picks one); one tet at a time the
+/// loop was latency-bound (~70 cycles).
+[[gnu::always_inline]] inline unsigned not_slivers_lanes(const double* x, const Tet* tets,
+                                                         double s2_margin) {
   double a[3][kLanes], b[3][kLanes], c[3][kLanes], l2[kLanes] = {};
   for (int l = 0; l < kLanes; ++l) {
     const Tet& t = tets[l];
@@ -80,7 +82,27 @@ unsigned surely_not_slivers(const double* x, const Tet* tets, double s2_margin) 
   return good;
 }
 
-}  // namespace detail
+/// The two copies of not_slivers_lanes().
+unsigned not_slivers_baseline(const double* x, const Tet* tets, double s2_margin) {
+  return not_slivers_lanes(x, tets, s2_margin);
+}
+#if TC_HAS_AVX2_REGION
+__attribute__((target("avx2"))) unsigned not_slivers_avx2(const double* x, const Tet* tets,
+                                                          double s2_margin) {
+  return not_slivers_lanes(x, tets, s2_margin);
+}
+#endif
+
+/// The copy of not_slivers_lanes() this CPU runs (use_avx2_kernels()).
+using NotSlivers = unsigned (*)(const double*, const Tet*, double);
+NotSlivers not_slivers_kernel() {
+#if TC_HAS_AVX2_REGION
+  if (use_avx2_kernels()) return not_slivers_avx2;
+#endif
+  return not_slivers_baseline;
+}
+
+}  // namespace
 
 namespace {
 
@@ -112,33 +134,34 @@ void check_shapes(const Positions& p, std::span<const Tet> tets, const Validatio
   const bool fast = !opt.compute_min_quality;
   const double s = std::max(opt.sliver_quality, opt.degenerate_quality);
   const double s2_margin = s * s + kSquaredQualityMargin;
-  detail::for_chunks(
-      tets.size(), kShapeChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-        ValidationReport& part = parts[c];
-        const auto exact = [&](std::size_t k) {
-          const double q = tet_quality(p, tets[k]);
-          const Index ti = index.empty() ? static_cast<Index>(k) : index[k];
-          if (q < part.min_quality) part.min_quality = q;
-          if (std::abs(q) < opt.degenerate_quality) {
-            add_smallest(part.degenerate, ti, opt.max_listed);
-          } else if (q < 0.0) {
-            add_smallest(part.inverted, ti, opt.max_listed);
-          } else if (q < opt.sliver_quality) {
-            add_smallest(part.sliver, ti, opt.max_listed);
-          }
-        };
-        std::size_t k = begin;
-        if (fast && skip.empty()) {
-          for (; k + kLanes <= end; k += kLanes) {
-            const unsigned good = detail::surely_not_slivers(p.data(), tets.data() + k, s2_margin);
-            if (good == (1u << kLanes) - 1) continue;
-            for (int l = 0; l < kLanes; ++l)
-              if (!(good >> l & 1u)) exact(k + static_cast<std::size_t>(l));
-          }
-        }
-        for (; k < end; ++k)
-          if (skip.empty() || !skip[k]) exact(k);
-      });
+  const NotSlivers not_slivers = not_slivers_kernel();
+  detail::for_chunks(tets.size(), kShapeChunk,
+                     [&](std::size_t begin, std::size_t end, std::size_t c) {
+                       ValidationReport& part = parts[c];
+                       const auto exact = [&](std::size_t k) {
+                         const double q = tet_quality(p, tets[k]);
+                         const Index ti = index.empty() ? static_cast<Index>(k) : index[k];
+                         if (q < part.min_quality) part.min_quality = q;
+                         if (std::abs(q) < opt.degenerate_quality) {
+                           add_smallest(part.degenerate, ti, opt.max_listed);
+                         } else if (q < 0.0) {
+                           add_smallest(part.inverted, ti, opt.max_listed);
+                         } else if (q < opt.sliver_quality) {
+                           add_smallest(part.sliver, ti, opt.max_listed);
+                         }
+                       };
+                       std::size_t k = begin;
+                       if (fast && skip.empty()) {
+                         for (; k + kLanes <= end; k += kLanes) {
+                           const unsigned good = not_slivers(p.data(), tets.data() + k, s2_margin);
+                           if (good == (1u << kLanes) - 1) continue;
+                           for (int l = 0; l < kLanes; ++l)
+                             if (!(good >> l & 1u)) exact(k + static_cast<std::size_t>(l));
+                         }
+                       }
+                       for (; k < end; ++k)
+                         if (skip.empty() || !skip[k]) exact(k);
+                     });
   for (const ValidationReport& part : parts) {
     report.min_quality = std::min(report.min_quality, part.min_quality);
     merge(report.degenerate, part.degenerate, opt.max_listed);
