@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "core/mesh/geometry.hpp"
+#include "kernel_copies.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -326,7 +327,10 @@ std::uint64_t bits_of(double x) {
   return std::isnan(x) ? 0x7ff8000000000000ULL : std::bit_cast<std::uint64_t>(x);
 }
 
-TEST(ClippedTetBox, FourAtOnceHaveTheBitsOfOneAtATime) {
+// With each copy of the kernel (AVX2, baseline).
+class ClippedTetBoxCopies : public test::BothKernels {};
+
+TEST_P(ClippedTetBoxCopies, FourAtOnceHaveTheBitsOfOneAtATime) {
   // Random tets against thin slabs on each axis: corners inside, outside and exactly on
   // the slab planes, edges along a plane, flat and repeated-corner tets, 1e6 offsets and
   // 1e-6 scales, NaN and infinite corners, pads 0, tiny and large.
@@ -374,6 +378,8 @@ TEST(ClippedTetBox, FourAtOnceHaveTheBitsOfOneAtATime) {
   EXPECT_GT(nonempty, 20000);
   EXPECT_GT(empty, 5000);
 }
+
+INSTANTIATE_TEST_SUITE_P(Kernels, ClippedTetBoxCopies, ::testing::Bool(), test::kernel_copy_name);
 
 TEST(AabbTree, RefitAfterDeformationQueriesLikeBruteForce) {
   std::mt19937 rng(9);

@@ -18,6 +18,7 @@
 
 #include "core/common/cpu_dispatch.hpp"
 #include "core/mesh/geometry.hpp"
+#include "kernel_copies.hpp"
 #include "test_meshes.hpp"
 
 namespace tc {
@@ -435,7 +436,10 @@ void expect_same_geometry(const TetGeometry& got, const TetGeometry& want, int i
   same(got.ez, want.ez, "ez");
 }
 
-TEST(TetGeometry, FourAtOnceHasTheBitsOfOneAtATime) {
+// With each copy of the kernel (AVX2, baseline).
+class TetGeometryCopies : public test::BothKernels {};
+
+TEST_P(TetGeometryCopies, FourAtOnceHasTheBitsOfOneAtATime) {
   // Random tets of any quality (slivers and flat ones included), both orientations,
   // repeated corners, 1e6 offsets and 1e-6 scales, and corners that are NaN or infinite.
   std::mt19937 rng(31337);
@@ -471,6 +475,8 @@ TEST(TetGeometry, FourAtOnceHasTheBitsOfOneAtATime) {
   EXPECT_GT(flat, 2000);  // the flat, repeated and non-finite kinds
   EXPECT_GT(nonfinite, 100);
 }
+
+INSTANTIATE_TEST_SUITE_P(Kernels, TetGeometryCopies, ::testing::Bool(), test::kernel_copy_name);
 
 TEST(TetOverlap, TranslationAndScaleInvariantOnRandomPairs) {
   std::mt19937 rng(99);
@@ -785,7 +791,10 @@ TEST_P(ClipCases, ThroughInsideInFaceTouchingAndOutside) {
 
 INSTANTIATE_TEST_SUITE_P(TetOverlap, ClipCases, kDyadicFrames);
 
-TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
+// With each copy of the kernel (AVX2, baseline).
+class ClipSegmentCopies : public test::BothKernels {};
+
+TEST_P(ClipSegmentCopies, VectorisedAgreesWithReferenceBitForBit) {
   // Segments through, into, along faces and edges of, and near random tets (corners,
   // points on faces, mirrored copies), under 1e6 offsets and 1e-6 scales, 3 tolerances.
   std::mt19937 rng(8128);
@@ -853,6 +862,8 @@ TEST(ClipSegment, VectorisedAgreesWithReferenceBitForBit) {
   EXPECT_GT(hits, 50000);
   EXPECT_EQ(checked, 240000);
 }
+
+INSTANTIATE_TEST_SUITE_P(Kernels, ClipSegmentCopies, ::testing::Bool(), test::kernel_copy_name);
 
 TEST(ClipSegment, FlatTetsAndNaNNeverHit) {
   const TetCorners flat = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(0, 1, 0),

@@ -1,21 +1,13 @@
 #include "core/common/cpu_dispatch.hpp"
 
-#include <atomic>
-
-#include "core/common/target_clones.hpp"
-
 namespace tc {
-namespace {
-std::atomic<bool> g_baseline_only{false};
-}  // namespace
 
-bool use_avx2_kernels() {
-#if TC_HAS_AVX2_REGION
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return has && !g_baseline_only.load(std::memory_order_relaxed);
+std::atomic<bool> detail::g_baseline_only{false};
+
+bool detail::cpu_has_avx2() {
+#if defined(__x86_64__)
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") != 0;
 #else
   return false;
 #endif

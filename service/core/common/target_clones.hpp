@@ -1,8 +1,11 @@
-// TC_TARGET_CLONES_AVX2: one AVX2 copy and one x86-64 baseline copy of a function, picked
-// at load time by an ifunc resolver. Left out under ThreadSanitizer: the dynamic loader
-// runs the resolver before the TSan runtime is initialised, and the resolver is
-// instrumented (every TSan program linking such a function crashed at start-up). Left out
-// off x86-64 too.
+// Two copies of the vector kernels, one built for AVX2 and one for the x86-64 baseline,
+// with the same operations in the same order (so the same bits); use_avx2_kernels()
+// (cpu_dispatch.hpp) picks one at run time, and tests run both. (The name is that of the
+// GCC attribute the kernels used before, target_clones: its ifunc picked the AVX2 copy on
+// every machine the tests ran on, so the baseline copy was never tested.)
+//
+// No AVX2 copies under ThreadSanitizer (its programs had crashed at start-up with
+// target_clones' ifunc resolvers; the baseline copy runs there) nor off x86-64.
 #pragma once
 
 #if defined(__has_feature)
@@ -14,19 +17,15 @@
 #define TC_NO_TARGET_CLONES 1
 #endif
 
-#if defined(TC_NO_TARGET_CLONES)
-#define TC_TARGET_CLONES_AVX2
-#else
-#define TC_TARGET_CLONES_AVX2 __attribute__((target_clones("avx2", "default")))
-#endif
-
-// TC_AVX2_REGION_BEGIN ... TC_AVX2_REGION_END: every function defined between them is built
-// for AVX2 (GCC: #pragma GCC target; Clang: #pragma clang attribute), inline helpers
-// included, so a file can hold a second, AVX2 copy of its vector code and pick one at run
-// time (tet_overlap.cpp, use_avx2_kernels() in cpu_dispatch.hpp). Unlike target_clones, helpers
-// defined inside the region get the AVX2 forms of their operations too. Only where
-// TC_HAS_AVX2_REGION is 1: the same places as target_clones (not under TSan, where the baseline
-// copy is picked anyway, nor off x86-64).
+// Two ways to build the AVX2 copy:
+// - TC_AVX2_REGION_BEGIN ... TC_AVX2_REGION_END: every function defined between them is
+//   built for AVX2 (GCC: #pragma GCC target; Clang: #pragma clang attribute), inline
+//   helpers included, so a file can include its vector code a second time there
+//   (fast_sat.inc, motion_pass.inc). Helpers defined inside the region get the AVX2 forms
+//   of their operations too.
+// - An always_inline lane loop called from a plain function and from one with
+//   __attribute__((target("avx2"))): the loop is inlined into both and built for each.
+// Only where TC_HAS_AVX2_REGION is 1 (not under TSan, nor off x86-64).
 #if defined(TC_NO_TARGET_CLONES)
 #define TC_HAS_AVX2_REGION 0
 #elif defined(__clang__)

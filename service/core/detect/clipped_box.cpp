@@ -6,6 +6,7 @@
 #include <array>
 #include <limits>
 
+#include "core/common/cpu_dispatch.hpp"
 #include "core/common/target_clones.hpp"
 #include "core/detect/broad_phase.hpp"
 #include "core/detect/lanes.hpp"
@@ -106,10 +107,23 @@ TC_INLINE void clipped_box_lanes(const std::array<TetCorners, 4>& t, const Aabb&
 
 }  // namespace
 
-TC_TARGET_CLONES_AVX2 void clipped_tet_boxes4(const std::array<TetCorners, 4>& t,
-                                              const Aabb& region, int axis,
-                                              const std::array<double, 4>& pad,
-                                              std::array<Aabb, 4>& out) {
+namespace {
+#if TC_HAS_AVX2_REGION
+/// clipped_box_lanes() built for AVX2.
+__attribute__((target("avx2"))) void clipped_boxes_avx2(const std::array<TetCorners, 4>& t,
+                                                        const Aabb& region, int axis,
+                                                        const std::array<double, 4>& pad,
+                                                        std::array<Aabb, 4>& out) {
+  clipped_box_lanes(t, region, axis, pad, out);
+}
+#endif
+}  // namespace
+
+void clipped_tet_boxes4(const std::array<TetCorners, 4>& t, const Aabb& region, int axis,
+                        const std::array<double, 4>& pad, std::array<Aabb, 4>& out) {
+#if TC_HAS_AVX2_REGION
+  if (use_avx2_kernels()) return clipped_boxes_avx2(t, region, axis, pad, out);
+#endif
   clipped_box_lanes(t, region, axis, pad, out);
 }
 

@@ -1,7 +1,7 @@
 // Internal to service/core/detect: four doubles per vector for the exact tests
-// (tet_overlap.cpp) and the broad phase's clipped boxes (broad_phase.cpp). One AVX
-// register where the function is an AVX2 clone (TC_TARGET_CLONES_AVX2), two SSE2
-// registers on baseline x86-64 (an AVX2 clone still gets the baseline's splat and lane
+// (tet_overlap.cpp) and the broad phase's clipped boxes (clipped_box.cpp). One AVX
+// register where the function is built for AVX2 (target_clones.hpp), two SSE2
+// registers on baseline x86-64 (an AVX2 copy still gets the baseline's splat and lane
 // mask from these helpers: lane_ops.inc says how a file gets the AVX2 forms of them
 // too); arithmetic and comparisons act lane by lane and are
 // IEEE-exact like the scalar code they reproduce. Both files are built with
