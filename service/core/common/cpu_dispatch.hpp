@@ -34,4 +34,10 @@ inline bool use_avx2_kernels() {
 #endif
 }
 
+/// `avx2` when use_avx2_kernels(), else `baseline`: the two copies of one kernel.
+template <typename Kernel>
+Kernel pick_kernel(Kernel baseline, Kernel avx2) {
+  return use_avx2_kernels() ? avx2 : baseline;
+}
+
 }  // namespace tc

@@ -25,9 +25,16 @@
 //   of their operations too.
 // - An always_inline lane loop called from a plain function and from one with
 //   __attribute__((target("avx2"))): the loop is inlined into both and built for each.
-// Only where TC_HAS_AVX2_REGION is 1 (not under TSan, nor off x86-64).
+// Only where TC_HAS_AVX2_REGION is 1 (not under TSan, nor off x86-64). TC_AVX2_TARGET is the
+// attribute of the second way's AVX2 copy; where there is no AVX2 copy it is empty, the copy
+// is a second baseline copy, and use_avx2_kernels() never picks it.
 #if defined(TC_NO_TARGET_CLONES)
 #define TC_HAS_AVX2_REGION 0
+#define TC_AVX2_TARGET
+#else
+#define TC_AVX2_TARGET __attribute__((target("avx2")))
+#endif
+#if defined(TC_NO_TARGET_CLONES)
 #elif defined(__clang__)
 #define TC_HAS_AVX2_REGION 1
 #define TC_AVX2_REGION_BEGIN \

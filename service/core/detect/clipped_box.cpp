@@ -105,25 +105,18 @@ TC_INLINE void clipped_box_lanes(const std::array<TetCorners, 4>& t, const Aabb&
         region, pad[j]);
 }
 
-}  // namespace
-
-namespace {
-#if TC_HAS_AVX2_REGION
 /// clipped_box_lanes() built for AVX2.
-__attribute__((target("avx2"))) void clipped_boxes_avx2(const std::array<TetCorners, 4>& t,
-                                                        const Aabb& region, int axis,
-                                                        const std::array<double, 4>& pad,
-                                                        std::array<Aabb, 4>& out) {
+TC_AVX2_TARGET void clipped_boxes_avx2(const std::array<TetCorners, 4>& t, const Aabb& region,
+                                       int axis, const std::array<double, 4>& pad,
+                                       std::array<Aabb, 4>& out) {
   clipped_box_lanes(t, region, axis, pad, out);
 }
-#endif
+
 }  // namespace
 
 void clipped_tet_boxes4(const std::array<TetCorners, 4>& t, const Aabb& region, int axis,
                         const std::array<double, 4>& pad, std::array<Aabb, 4>& out) {
-#if TC_HAS_AVX2_REGION
   if (use_avx2_kernels()) return clipped_boxes_avx2(t, region, axis, pad, out);
-#endif
   clipped_box_lanes(t, region, axis, pad, out);
 }
 

@@ -30,7 +30,7 @@ constexpr std::size_t kReachLanes = 8;
 /// Bit l set when node l of the kReachLanes nodes at p (3 coordinates each; references
 /// at q) is further than r from its reference along an axis, or not finite there or at
 /// the reference: CollisionBody::compare_chunk's test of one node, in plain lane loops
-/// the compiler vectorises (AVX2 and baseline copies, beyond_reach_kernel()).
+/// the compiler vectorises (AVX2 and baseline copies below).
 [[gnu::always_inline]] inline unsigned beyond_reach_lanes(const double* p, const double* q,
                                                           double r) {
   constexpr int L = static_cast<int>(kReachLanes);
@@ -42,22 +42,12 @@ constexpr std::size_t kReachLanes = 8;
   return mask;
 }
 
-/// The two copies of beyond_reach_lanes(), and the one this CPU runs (use_avx2_kernels()).
+/// The two copies of beyond_reach_lanes() (pick_kernel()).
 unsigned beyond_reach_baseline(const double* p, const double* q, double r) {
   return beyond_reach_lanes(p, q, r);
 }
-#if TC_HAS_AVX2_REGION
-__attribute__((target("avx2"))) unsigned beyond_reach_avx2(const double* p, const double* q,
-                                                           double r) {
+TC_AVX2_TARGET unsigned beyond_reach_avx2(const double* p, const double* q, double r) {
   return beyond_reach_lanes(p, q, r);
-}
-#endif
-using BeyondReach = unsigned (*)(const double*, const double*, double);
-BeyondReach beyond_reach_kernel() {
-#if TC_HAS_AVX2_REGION
-  if (use_avx2_kernels()) return beyond_reach_avx2;
-#endif
-  return beyond_reach_baseline;
 }
 
 }  // namespace detail
@@ -526,7 +516,7 @@ void CollisionBody::compare_chunk(const double* xyz, std::size_t begin, std::siz
   moved.clear();
   const double* ref = ref_.data();
   const double r = reach_;
-  const detail::BeyondReach beyond_reach = detail::beyond_reach_kernel();
+  const auto beyond_reach = pick_kernel(detail::beyond_reach_baseline, detail::beyond_reach_avx2);
   std::size_t i = begin;
   for (; i + detail::kReachLanes <= end; i += detail::kReachLanes)  // in order
     for (unsigned m = beyond_reach(xyz + 3 * i, ref + 3 * i, r); m != 0; m &= m - 1)

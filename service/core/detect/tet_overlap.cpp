@@ -455,21 +455,17 @@ TC_INLINE void geometry_lanes(const std::array<TetCorners, 4>& t,
 
 }  // namespace
 
-#if TC_HAS_AVX2_REGION
 namespace {
 /// geometry_lanes() built for AVX2.
-__attribute__((target("avx2"))) void geometry_avx2(const std::array<TetCorners, 4>& t,
-                                                   const std::array<TetGeometry*, 4>& out) {
+TC_AVX2_TARGET void geometry_avx2(const std::array<TetCorners, 4>& t,
+                                  const std::array<TetGeometry*, 4>& out) {
   geometry_lanes(t, out);
 }
 }  // namespace
-#endif
 
 void make_tet_geometry4(const std::array<TetCorners, 4>& t,
                         const std::array<TetGeometry*, 4>& out) {
-#if TC_HAS_AVX2_REGION
   if (use_avx2_kernels()) return geometry_avx2(t, out);
-#endif
   geometry_lanes(t, out);
 }
 
@@ -634,36 +630,28 @@ TC_INLINE void clip_targets(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1
     out[i] = clip_lanes(p0, p1, length, *targets[i].tet, targets[i].tolerance);
 }
 
-#if TC_HAS_AVX2_REGION
 /// clip_lanes() and clip_targets() built for AVX2.
-__attribute__((target("avx2"))) SegmentClip clip_avx2(const Eigen::Vector3d& p0,
-                                                      const Eigen::Vector3d& p1,
-                                                      const TetGeometry& t, double tolerance) {
+TC_AVX2_TARGET SegmentClip clip_avx2(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                     const TetGeometry& t, double tolerance) {
   return clip_lanes(p0, p1, (p1 - p0).norm(), t, tolerance);
 }
-__attribute__((target("avx2"))) void clip_targets_avx2(const Eigen::Vector3d& p0,
-                                                       const Eigen::Vector3d& p1,
-                                                       std::span<const ClipTarget> targets,
-                                                       std::span<SegmentClip> out) {
+TC_AVX2_TARGET void clip_targets_avx2(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                      std::span<const ClipTarget> targets,
+                                      std::span<SegmentClip> out) {
   clip_targets(p0, p1, targets, out);
 }
-#endif
 
 }  // namespace
 
 SegmentClip clip_segment_tet(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                              const TetGeometry& t, double tolerance) {
-#if TC_HAS_AVX2_REGION
   if (use_avx2_kernels()) return clip_avx2(p0, p1, t, tolerance);
-#endif
   return clip_lanes(p0, p1, (p1 - p0).norm(), t, tolerance);
 }
 
 void clip_segment_tets(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
                        std::span<const ClipTarget> targets, std::span<SegmentClip> out) {
-#if TC_HAS_AVX2_REGION
   if (use_avx2_kernels()) return clip_targets_avx2(p0, p1, targets, out);
-#endif
   clip_targets(p0, p1, targets, out);
 }
 

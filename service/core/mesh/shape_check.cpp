@@ -6,11 +6,11 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
-
-#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
 
 #include "core/common/chunked.hpp"
 #include "core/common/cpu_dispatch.hpp"
@@ -72,7 +72,7 @@ std::size_t pass_chunk(std::size_t n) {
 namespace detail {
 
 /// certified_motion_radius() of kRadiusLanes tets at once, in plain lane loops the compiler
-/// vectorises (AVX2 and baseline copies, motion_radii_kernel(); the same operations in the
+/// vectorises (AVX2 and baseline copies, pick_kernel(); the same operations in the
 /// same order in every copy and lane, so the same bits). The bound: see the header. q^2 = 432
 /// (6V)^2 / l2^3 with l2 the sum of the six squared edge lengths, so the tet keeps q >= s while
 /// sqrt(432) W(d) >= s L(d)^(3/2), W and L the bounds on 6V and l2 after each node moved
@@ -143,22 +143,13 @@ namespace detail {
   }
 }
 
-/// The two copies of motion_radii_lanes(), and the one this CPU runs (use_avx2_kernels()).
+/// The two copies of motion_radii_lanes() (pick_kernel()).
 void motion_radii_baseline(const double* x, const Tet* tets, double quality, double* out) {
   motion_radii_lanes(x, tets, quality, out);
 }
-#if TC_HAS_AVX2_REGION
-__attribute__((target("avx2"))) void motion_radii_avx2(const double* x, const Tet* tets,
-                                                       double quality, double* out) {
+TC_AVX2_TARGET void motion_radii_avx2(const double* x, const Tet* tets, double quality,
+                                      double* out) {
   motion_radii_lanes(x, tets, quality, out);
-}
-#endif
-using MotionRadii = void (*)(const double*, const Tet*, double, double*);
-MotionRadii motion_radii_kernel() {
-#if TC_HAS_AVX2_REGION
-  if (use_avx2_kernels()) return motion_radii_avx2;
-#endif
-  return motion_radii_baseline;
 }
 
 /// Appends node k + l to `moved` for each bit l of mask, in order.
@@ -198,7 +189,8 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
   Tet batch[kRadiusLanes];
   for (Tet& t : batch) t = tet;
   double out[kRadiusLanes];
-  detail::motion_radii_kernel()(positions.data(), batch, quality, out);
+  pick_kernel(detail::motion_radii_baseline, detail::motion_radii_avx2)(positions.data(), batch,
+                                                                        quality, out);
   return out[0];
 }
 
@@ -208,7 +200,7 @@ namespace {
 template <typename PlaceOf>
 void compute_radii(const Positions& x, const std::vector<Tet>& tets, double quality,
                    std::size_t count, const PlaceOf& place_of, std::vector<double>& radius) {
-  const detail::MotionRadii motion_radii = detail::motion_radii_kernel();
+  const auto motion_radii = pick_kernel(detail::motion_radii_baseline, detail::motion_radii_avx2);
   detail::for_chunks(count, kRadiusChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
     Tet batch[kRadiusLanes];
     double out[kRadiusLanes];

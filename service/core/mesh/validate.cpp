@@ -44,7 +44,7 @@ namespace {
 /// itself by less). A tet that passes with the margin has a computed tet_quality() >= s
 /// as well; the others take tet_quality() itself, so the report does not depend on this
 /// test's bits. The lanes are plain loops the compiler vectorises, once for AVX2 and once
-/// for the x86-64 baseline (not_slivers_kernel() picks one); one tet at a time the
+/// for the x86-64 baseline (pick_kernel() picks one); one tet at a time the
 /// loop was latency-bound (~70 cycles).
 [[gnu::always_inline]] inline unsigned not_slivers_lanes(const double* x, const Tet* tets,
                                                          double s2_margin) {
@@ -82,24 +82,12 @@ namespace {
   return good;
 }
 
-/// The two copies of not_slivers_lanes().
+/// The two copies of not_slivers_lanes() (pick_kernel()).
 unsigned not_slivers_baseline(const double* x, const Tet* tets, double s2_margin) {
   return not_slivers_lanes(x, tets, s2_margin);
 }
-#if TC_HAS_AVX2_REGION
-__attribute__((target("avx2"))) unsigned not_slivers_avx2(const double* x, const Tet* tets,
-                                                          double s2_margin) {
+TC_AVX2_TARGET unsigned not_slivers_avx2(const double* x, const Tet* tets, double s2_margin) {
   return not_slivers_lanes(x, tets, s2_margin);
-}
-#endif
-
-/// The copy of not_slivers_lanes() this CPU runs (use_avx2_kernels()).
-using NotSlivers = unsigned (*)(const double*, const Tet*, double);
-NotSlivers not_slivers_kernel() {
-#if TC_HAS_AVX2_REGION
-  if (use_avx2_kernels()) return not_slivers_avx2;
-#endif
-  return not_slivers_baseline;
 }
 
 }  // namespace
@@ -134,7 +122,7 @@ void check_shapes(const Positions& p, std::span<const Tet> tets, const Validatio
   const bool fast = !opt.compute_min_quality;
   const double s = std::max(opt.sliver_quality, opt.degenerate_quality);
   const double s2_margin = s * s + kSquaredQualityMargin;
-  const NotSlivers not_slivers = not_slivers_kernel();
+  const auto not_slivers = pick_kernel(not_slivers_baseline, not_slivers_avx2);
   detail::for_chunks(tets.size(), kShapeChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t c) {
                        ValidationReport& part = parts[c];
