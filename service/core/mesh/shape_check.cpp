@@ -11,6 +11,7 @@
 #include <string>
 
 #include <emmintrin.h>  // SSE2 (x86-64 baseline): _mm_movemask_pd
+#include <immintrin.h>  // AVX (the AVX2 copy only): _mm256_movemask_pd
 
 #include "core/common/chunked.hpp"
 #include "core/common/cpu_dispatch.hpp"
@@ -159,7 +160,9 @@ TC_AVX2_TARGET void motion_radii_avx2(const double* x, const Tet* tets, double q
 }
 
 namespace baseline {
+#define TC_MOTION_PASS_AVX2 0
 #include "core/mesh/motion_pass.inc"
+#undef TC_MOTION_PASS_AVX2
 }  // namespace baseline
 
 }  // namespace detail
@@ -167,7 +170,9 @@ namespace baseline {
 #if TC_HAS_AVX2_REGION
 TC_AVX2_REGION_BEGIN
 namespace detail::avx2 {
+#define TC_MOTION_PASS_AVX2 1
 #include "core/mesh/motion_pass.inc"
+#undef TC_MOTION_PASS_AVX2
 }  // namespace detail::avx2
 TC_AVX2_REGION_END
 #endif
@@ -175,12 +180,12 @@ TC_AVX2_REGION_END
 namespace detail {
 
 /// The pass of the copy this CPU runs (motion_pass.inc).
-void motion_pass(const double* x, const double* ref, const double* rad2, const double* shift,
+void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
                  std::size_t begin, std::size_t end, std::vector<Index>& moved, PointBox& box) {
 #if TC_HAS_AVX2_REGION
-  if (use_avx2_kernels()) return avx2::motion_pass(x, ref, rad2, shift, begin, end, moved, box);
+  if (use_avx2_kernels()) return avx2::motion_pass(x, blocks, rad2, shift, begin, end, moved, box);
 #endif
-  baseline::motion_pass(x, ref, rad2, shift, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, begin, end, moved, box);
 }
 
 }  // namespace detail
@@ -245,8 +250,17 @@ double ShapeCheck::node_radius2(Index node) const {
   return r < 0.0 ? -1.0 : r * r;
 }
 
+void ShapeCheck::set_block_node(Index node) {
+  const auto i = static_cast<std::size_t>(node);
+  double* block = blocks_.data() + 3 * (i - i % kPassStep);
+  for (std::size_t c = 0; c < 3; ++c) block[c * kPassStep + i % kPassStep] = reference_(c, node);
+}
+
 void ShapeCheck::rebuild(const Positions& positions) {
   reference_ = positions;
+  blocks_.assign(
+      3 * detail::num_chunks(static_cast<std::size_t>(num_nodes_), kPassStep) * kPassStep, 0.0);
+  for (Index i = 0; i < num_nodes_; ++i) set_block_node(i);
   radius_.resize(order_.tets.size());
   compute_radii(
       reference_, order_.tets, quality_, radius_.size(), [](std::size_t k) { return k; }, radius_);
@@ -339,7 +353,8 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     pass_boxes_.assign(chunks, PointBox{});
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      detail::motion_pass(x, r, radius2_.data(), shift, begin, end, moved_parts_[c], box);
+      detail::motion_pass(x, blocks_.data(), radius2_.data(), shift, begin, end, moved_parts_[c],
+                          box);
       pass_boxes_[c] = box;
     });
     detail::concat_parts(moved_parts_, chunks, moved_);
@@ -384,8 +399,10 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
 
   // Accepted: the nodes that moved join the reference (moved back by the shift, like the
   // rest of it), and the radii of their tets and of those tets' nodes are recomputed.
-  for (const Index i : moved_)
+  for (const Index i : moved_) {
     for (int c = 0; c < 3; ++c) reference_(c, i) = positions(c, i) - shift[c];
+    set_block_node(i);
+  }
   compute_radii(
       reference_, order_.tets, quality_, places_.size(),
       [&](std::size_t j) { return static_cast<std::size_t>(places_[j]); }, radius_);
