@@ -43,6 +43,12 @@ constexpr std::size_t kBusyFraction = 4;
 /// Nodes per step of detail::motion_pass().
 constexpr std::size_t kPassStep = 4;
 
+/// Where coordinate c of node i lies in the motion pass's copy of the reference
+/// (ShapeCheck::blocks_: blocks of kPassStep nodes, coordinate by coordinate).
+constexpr std::size_t block_slot(std::size_t i, std::size_t c) {
+  return kPassStep * (3 * (i / kPassStep) + c) + i % kPassStep;
+}
+
 /// The chunks of the parallel motion pass: about kPassChunk nodes each, a multiple of
 /// kPassSplit of them (so that two or four threads share them evenly: seven chunks on two
 /// threads took 4/3.5 of the time), each a multiple of kPassStep nodes but the last. The
@@ -252,8 +258,8 @@ double ShapeCheck::node_radius2(Index node) const {
 
 void ShapeCheck::set_block_node(Index node) {
   const auto i = static_cast<std::size_t>(node);
-  double* block = blocks_.data() + 3 * (i - i % kPassStep);
-  for (std::size_t c = 0; c < 3; ++c) block[c * kPassStep + i % kPassStep] = reference_(c, node);
+  for (std::size_t c = 0; c < 3; ++c)
+    blocks_[block_slot(i, c)] = reference_(static_cast<Index>(c), node);
 }
 
 void ShapeCheck::rebuild(const Positions& positions) {
