@@ -6,11 +6,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
+#include <memory>
 #include <random>
 #include <span>
 #include <tuple>
@@ -554,9 +557,48 @@ class VectorisedOverlap : public ::testing::Test {
             << "check " << checked_ << " batch (swapped), baseline " << baseline;
       }
       detail::use_baseline_kernels(false);
+      if (scale == 1.0 && offset == 0.0) {
+        batch_.push_back(ga);
+        batch_.push_back(gb);
+      }
     }
     ++checked_;
   }
+
+  /// Every pair check() saw (at scale 1, offset 0), both ways round, in one call of
+  /// tets_overlap_pairs(): runs of pairs of every kind (flat ones among them), many blocks
+  /// of them, each against the reference, on both copies of the test.
+  void check_batch() {
+    std::vector<GeometryPair> pairs;
+    for (std::size_t i = 0; i + 1 < batch_.size(); i += 2) {
+      pairs.push_back({&batch_[i], &batch_[i + 1]});
+      pairs.push_back({&batch_[i + 1], &batch_[i]});
+    }
+    std::vector<char> want(pairs.size());
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      want[i] = tets_overlap_reference(*pairs[i].a, *pairs[i].b,
+                                       kTol * pair_scale(*pairs[i].a, *pairs[i].b))
+                    ? 1
+                    : 0;
+    for (const bool baseline : {false, true}) {
+      detail::use_baseline_kernels(baseline);
+      std::unique_ptr<bool[]> hits(new bool[pairs.size()]);
+      for (std::size_t i = 0; i < pairs.size(); ++i) hits[i] = want[i] == 0;  // all wrong
+      tets_overlap_pairs(pairs, kTol, {hits.get(), pairs.size()});
+      std::size_t wrong = 0, first = pairs.size();
+      for (std::size_t i = 0; i < pairs.size(); ++i)
+        if (hits[i] != (want[i] != 0)) {
+          ++wrong;
+          first = std::min(first, i);
+        }
+      EXPECT_EQ(wrong, 0U) << "first at pair " << first << " of " << pairs.size() << ", baseline "
+                           << baseline;
+    }
+    detail::use_baseline_kernels(false);
+    EXPECT_GT(pairs.size(), 20000U);
+  }
+
+  std::deque<TetGeometry> batch_;  ///< pairs of tets, in the order check() saw them
 
   /// B moved along d to the reference's overlap boundary (bisection), then checked at and
   /// around it: the pairs where a different rounding would flip the answer.
@@ -622,6 +664,7 @@ TEST_F(VectorisedOverlap, RandomPairsOfEveryKindAgreeBitForBit) {
   }
   EXPECT_GT(checked_, 10000);
   EXPECT_GT(overlapping_, 20000);
+  check_batch();
 }
 
 // ----------------------------------------------------------------------------- point-in-tet

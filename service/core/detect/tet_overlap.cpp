@@ -1,6 +1,7 @@
 #include "core/detect/tet_overlap.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstddef>

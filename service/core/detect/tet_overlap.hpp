@@ -118,7 +118,9 @@ struct GeometryPair {
 /// out[i] = tets_overlap(*pairs[i].a, *pairs[i].b, relative_tolerance * pair_scale(*pairs[i].a,
 /// *pairs[i].b)) for every i (out.size() >= pairs.size()), bit for bit: the narrow phase's loop
 /// over a run of candidate pairs in one call, with the test inline (no call, no register saves
-/// per pair) and the geometry of B's tets asked for a few pairs ahead.
+/// per pair) and the geometry of B's tets asked for a few pairs ahead. Pairs go in blocks of
+/// 32: the coordinate and face axes of each pair of the block first, without a branch on what
+/// they find, then the edge axes, 4 at a time, of the pairs those left open.
 void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
                         std::span<bool> out);
 
