@@ -9,7 +9,8 @@
 //       along y and z so that no faces coincide
 //   NarrowPairs/<fast>/<sink_um>           the exact tet-tet test alone on the torus/box
 //       pairs whose tet boxes overlap (what the broad phase hands over), per pair:
-//       fast = 0 tets_overlap_reference (scalar), 1 tets_overlap (vectorised)
+//       fast = 0 tets_overlap_reference (scalar), 1 tets_overlap (vectorised), 2
+//       tets_overlap_pairs over runs of 256 pairs (the narrow phase's call)
 //   CoreRoundTrip                          one cache line between two pinned threads and
 //       back (bench/core_latency.hpp): which kind of core pair this machine gives now
 //
@@ -19,10 +20,13 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <vector>
 
 #include "core/detect/detect.hpp"
 #include "core/detect/tet_overlap.hpp"
@@ -174,13 +178,26 @@ void NarrowPairs(benchmark::State& state) {
   const double sink = static_cast<double>(state.range(1)) * 1e-6;
   const PairSet s = box_pairs(*a, *b, Eigen::Vector3d(0.0, 0.0, 0.25 - sink));
   using Test = bool (*)(const TetGeometry&, const TetGeometry&, double);
-  const Test test = state.range(0) != 0 ? Test{&tets_overlap} : Test{&tets_overlap_reference};
+  const Test test = state.range(0) == 1 ? Test{&tets_overlap} : Test{&tets_overlap_reference};
   const double rel = kDefaultRelativeTolerance;
   std::size_t overlapping = 0;
+  // fast = 2: the narrow phase's call, tets_overlap_pairs() over runs of 256 pairs.
+  constexpr std::size_t kRun = 256;
+  std::vector<GeometryPair> batch;
+  for (const auto& [i, j] : s.pairs) batch.push_back({&s.a[i], &s.b[j]});
+  std::array<bool, kRun> hits{};
   for (auto _ : state) {
     overlapping = 0;
-    for (const auto& [i, j] : s.pairs)
-      overlapping += test(s.a[i], s.b[j], rel * pair_scale(s.a[i], s.b[j])) ? 1 : 0;
+    if (state.range(0) == 2) {
+      for (std::size_t begin = 0; begin < batch.size(); begin += kRun) {
+        const std::size_t n = std::min(kRun, batch.size() - begin);
+        tets_overlap_pairs({batch.data() + begin, n}, rel, {hits.data(), n});
+        for (std::size_t k = 0; k < n; ++k) overlapping += hits[k] ? 1 : 0;
+      }
+    } else {
+      for (const auto& [i, j] : s.pairs)
+        overlapping += test(s.a[i], s.b[j], rel * pair_scale(s.a[i], s.b[j])) ? 1 : 0;
+    }
     benchmark::DoNotOptimize(overlapping);
   }
   state.counters["pairs"] = static_cast<double>(s.pairs.size());
@@ -188,7 +205,9 @@ void NarrowPairs(benchmark::State& state) {
   state.counters["ns_per_pair"] = benchmark::Counter(
       static_cast<double>(s.pairs.size()),
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.SetLabel(state.range(0) != 0 ? "vectorised" : "reference");
+  state.SetLabel(state.range(0) == 2   ? "vectorised, runs of pairs"
+                 : state.range(0) == 1 ? "vectorised"
+                                       : "reference");
 }
 
 /// One cache line between two threads pinned to two cores and back, per round trip
@@ -225,7 +244,7 @@ BENCHMARK(TorusBox)
     ->UseRealTime()
     ->MinTime(0.5);
 BENCHMARK(NarrowPairs)
-    ->ArgsProduct({{0, 1}, {5000, 10000}})
+    ->ArgsProduct({{0, 1, 2}, {5000, 10000}})
     ->ArgNames({"fast", "sink_um"})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
