@@ -1085,11 +1085,14 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
             for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {
               const Index slot = rows.items[k];
               if (slot >= best) break;  // rows are sorted
-              if (marks.mark[slot] == now) continue;
+              // Not tested yet for this node, and p in its padded box: one branch for
+              // both (each goes either way; the box of a repeat was just read, so it is
+              // in the L1 cache).
+              const bool fresh = marks.mark[slot] != now;
               marks.mark[slot] = now;
               const TetBox& box = gy.boxes[slot];
               const double tol = rel * box.scale;
-              if (!meets_padded_box(p, p, box.lo, box.hi, tol)) continue;
+              if (!(fresh & meets_padded_box(p, p, box.lo, box.hi, tol))) continue;
               const PointInTet hit = point_in_tet(p, geometry(slot), tol);
               if (hit.inside) {
                 best = slot;
