@@ -1064,8 +1064,11 @@ thread_local VisitMarks t_marks;
 /// way mispredicts more than the comparisons cost).
 inline bool meets_padded_box(const Eigen::Vector3d& slo, const Eigen::Vector3d& shi,
                              const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double tol) {
-  return (slo.x() <= hi.x() + tol) & (slo.y() <= hi.y() + tol) & (slo.z() <= hi.z() + tol) &
-         (shi.x() >= lo.x() - tol) & (shi.y() >= lo.y() - tol) & (shi.z() >= lo.z() - tol);
+  // As 0/1 integers: & of bools reads as a typo for && to clang (-Wbitwise-instead-of-logical).
+  const auto bit = [](bool b) { return static_cast<unsigned>(b); };
+  return (bit(slo.x() <= hi.x() + tol) & bit(slo.y() <= hi.y() + tol) &
+          bit(slo.z() <= hi.z() + tol) & bit(shi.x() >= lo.x() - tol) &
+          bit(shi.y() >= lo.y() - tol) & bit(shi.z() >= lo.z() - tol)) != 0;
 }
 
 }  // namespace
@@ -1115,7 +1118,8 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
               marks.mark[slot] = now;
               const TetBox& box = gy.boxes[slot];
               const double tol = rel * box.scale;
-              if (!(fresh & meets_padded_box(p, p, box.lo, box.hi, tol))) continue;
+              const bool in_box = meets_padded_box(p, p, box.lo, box.hi, tol);
+              if ((static_cast<unsigned>(fresh) & static_cast<unsigned>(in_box)) == 0) continue;
               const PointInTet hit = point_in_tet(p, geometry(slot), tol);
               if (hit.inside) {
                 best = slot;

@@ -581,9 +581,9 @@ PointInTet point_in_tet(const Eigen::Vector3d& p, const TetGeometry& t, double t
   // Outside a face (or NaN): all four tests, then one branch (the detection's node scan
   // makes ~500 calls a frame, and a test per face that goes either way mispredicts more
   // than the three products it would skip).
-  const bool within = (w[0] >= -tol * t.n_len[0]) & (w[1] >= -tol * t.n_len[1]) &
-                      (w[2] >= -tol * t.n_len[2]) & (w[3] >= -tol * t.n_len[3]);
-  if (!within) return out;
+  unsigned within = 1;  // 0/1, not bool: & of bools reads as a typo for && to clang
+  for (int k = 0; k < 4; ++k) within &= static_cast<unsigned>(w[k] >= -tol * t.n_len[k]);
+  if (within == 0) return out;
   const double total = w.sum();
   if (!(total > 0.0)) return out;
   out.inside = true;
