@@ -197,7 +197,9 @@ Eigen::Vector3d dent_centre() {
 /// The states of the box's frames for a kind of motion: 0 still, 1 every node jittered by
 /// 1e-6 of the box, 2 a dent of ~1% of the nodes pressed in and out (a tool 0.14 of the
 /// box wide, 0.02 of it deep, in the middle of the top face), 3 the whole box turned by
-/// 0.01 rad a frame.
+/// 0.01 rad a frame (64 states: 84 MB, read from memory), 4 the whole box turned about a
+/// tilted axis through its middle by 0.01 rad a frame and carried along (4 states, in
+/// the cache as motion 1's, to compare with the floors).
 std::vector<tc::Positions> box_states(long motion) {
   const tc::Positions& rest = box().positions;
   const Eigen::Vector3d lo = rest.rowwise().minCoeff(), hi = rest.rowwise().maxCoeff();
@@ -226,6 +228,15 @@ std::vector<tc::Positions> box_states(long motion) {
     for (int k = 1; k <= 64; ++k)
       states.push_back(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
                        rest);
+  if (motion == 4) {
+    const Eigen::Vector3d middle = 0.5 * (lo + hi);
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -0.3, 1.0).normalized();
+    for (int k = 1; k <= 4; ++k) {
+      const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.01 * k, axis).toRotationMatrix();
+      const Eigen::Vector3d along = Eigen::Vector3d(0.001, 0.002, 0.0) * k * size;
+      states.push_back((turn * (rest.colwise() - middle)).colwise() + (middle + along));
+    }
+  }
   return states;
 }
 
@@ -282,7 +293,8 @@ void BM_ShapeCheck(benchmark::State& state) {
 /// state.range(0): threads; state.range(1): the motion (box_states()), 1 = every node
 /// jittered (the passes alone: no node goes beyond its radius or reach), 2 = the dent
 /// pressed in and out (with the work on the nodes that moved: their tets checked, radii
-/// and group boxes made again).
+/// and group boxes made again), 4 = turned and carried along (the group boxes from the
+/// check's turned references).
 void BM_NodePasses(benchmark::State& state) {
   BoxCheck f(state);
   const tc::TetMesh& mesh = f.mesh;
@@ -385,12 +397,12 @@ BENCHMARK(BM_ValidatePositionsShuffledMorton)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ShapeCheck)
-    ->ArgsProduct({{1, 2}, {0, 1, 2, 3}, {0, 1}})
+    ->ArgsProduct({{1, 2}, {0, 1, 2, 3, 4}, {0, 1}})
     ->ArgNames({"threads", "motion", "full"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_NodePasses)
-    ->ArgsProduct({{1, 2}, {1, 2}})
+    ->ArgsProduct({{1, 2}, {1, 2, 4}})
     ->ArgNames({"threads", "motion"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -6,6 +6,8 @@
 //       frame, the torus only). Counters: the stage split of FrameStats and, on 2
 //       threads, the core-to-core round trip before and after (core_rt_*_ns,
 //       bench/core_latency.hpp).
+//   TurningTorusInBox/<threads>/<depth_um>   the same with the torus also turning about
+//       its own vertical axis, 0.01 rad a frame.
 //   Register/<cells>                  Pipeline::set_topology of a structured box of
 //       cells^3 x 6 tets (37: 303,918 tets, the service's "300k-tet object").
 //   BuildTopology/<cells>             build_topology alone on the same mesh.
@@ -13,6 +15,8 @@
 // Results and commands: docs/BENCHMARKS.md (Detection).
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
+
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <cstdio>
@@ -39,7 +43,9 @@ std::optional<TetMesh> data_mesh(const char* name) {
   return std::move(*mesh);
 }
 
-void TorusInBox(benchmark::State& state) {
+/// TorusInBox and TurningTorusInBox: the torus turning about its own axis by `turn` rad a
+/// frame (0: not turning).
+void torus_in_box(benchmark::State& state, double turn) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(state.range(0)));
   const double depth = static_cast<double>(state.range(1)) * 1e-6;
@@ -65,9 +71,17 @@ void TorusInBox(benchmark::State& state) {
   std::int64_t frame = 0;
   double broad = 0.0, narrow = 0.0, depth_ms = 0.0, response = 0.0, total = 0.0;
   std::size_t contacts = 0;
+  const Eigen::Vector3d axis_at = torus->positions.rowwise().mean();
   const auto run = [&] {
     const double dz = 0.002 * std::sin(2.0 * std::numbers::pi * static_cast<double>(frame) / 500.0);
-    states[0].positions = torus->positions;
+    if (turn == 0.0) {
+      states[0].positions = torus->positions;
+    } else {  // (about the vertical axis through the torus' middle)
+      const Eigen::Matrix3d r =
+          Eigen::AngleAxisd(turn * static_cast<double>(frame), Eigen::Vector3d::UnitZ())
+              .toRotationMatrix();
+      states[0].positions = (r * (torus->positions.colwise() - axis_at)).colwise() + axis_at;
+    }
     states[0].positions.row(2).array() += dz;
     return pipeline.run_frame_taking(frame++, states);  // as the daemon: no copy
   };
@@ -92,6 +106,16 @@ void TorusInBox(benchmark::State& state) {
   state.counters["contacts"] = static_cast<double>(contacts);
   // Which kind of core pair the two threads ran on (bench/core_latency.hpp).
   if (state.range(0) > 1) bench::add_core_round_trips(state, core_rt_before);
+}
+
+void TorusInBox(benchmark::State& state) {
+  torus_in_box(state, 0.0);
+}
+
+/// The same with the torus turning about its own (vertical) axis by 0.01 rad a frame, as a
+/// tool turned by a hand: the same contact, every node moved.
+void TurningTorusInBox(benchmark::State& state) {
+  torus_in_box(state, 0.01);
 }
 
 TetMesh large_box(int cells) {
@@ -124,6 +148,13 @@ BENCHMARK(TorusInBox)
     ->Args({2, 5000})
     ->Args({1, 10000})
     ->Args({2, 10000})
+    ->ArgNames({"threads", "depth_um"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+BENCHMARK(TurningTorusInBox)
+    ->Args({1, 5000})
+    ->Args({2, 5000})
     ->ArgNames({"threads", "depth_um"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()

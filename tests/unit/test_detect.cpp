@@ -983,9 +983,10 @@ struct BoundAndOwn {
 // The group boxes from the shape check's bound (no pass over the nodes) give the near tets
 // and contacts of the body's own comparison, over frames of a bulge moving under the tool,
 // a corner lifted 15 cm with the tool on it (its references move, the rest's do not),
-// translations of the whole object (the check's shift), frames at rest, turns (every tet
-// checked; the reference rebuilt, then not), an inverted state (rejected), and a frame
-// whose bound is not passed on (the next bound is taken anew, and used from the one after).
+// translations of the whole object (the check's shift), frames at rest, shears (every tet
+// checked; the reference rebuilt, then not), turns (the check's turned references), an
+// inverted state (rejected), and a frame whose bound is not passed on (the next bound is
+// taken anew, and used from the one after).
 TEST(Detect, AShapeChecksBoundGivesTheNearTetsOfTheBodysOwnComparison) {
   // 31 groups: the tool's region meets few of them, so the group boxes are used.
   const Object large(test::structured_box(36, 36, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
@@ -994,16 +995,18 @@ TEST(Detect, AShapeChecksBoundGivesTheNearTetsOfTheBodysOwnComparison) {
   std::mt19937 rng(13);
   std::normal_distribution<double> jitter(0.0, 2e-4);
   int from_bound = 0, moved_from_bound = 0, lifted_contact = 0, contact = 0, rejected = 0;
-  int rebuilt = 0, busy_not_rebuilt = 0;
-  for (int frame = 0; frame < 24; ++frame) {
+  int rebuilt = 0, busy_not_rebuilt = 0, turned_from_bound = 0;
+  for (int frame = 0; frame < 28; ++frame) {
     SCOPED_TRACE(frame);
     const bool lifted = frame % 3 == 1;
-    const double turn = frame >= 10 && frame <= 12 ? 0.1 * (frame - 9) : 0.0;
+    const double shear = frame >= 10 && frame <= 12 ? 0.1 * (frame - 9) : 0.0;
+    const double turn = frame >= 13 && frame <= 22 ? 0.05 * (frame - 12) : 0.0;
     const Vector3d shift = Vector3d(0.2, 0.1, 0.05) * static_cast<double>(frame / 7);
-    const Eigen::Matrix3d rotation = Eigen::AngleAxisd(turn, Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(turn, Vector3d(0.2, 0.1, 1.0).normalized()).toRotationMatrix();
     const Vector3d centre(0.5, 0.5, 0.0);
     const auto place = [&](const Vector3d& x) -> Vector3d {
-      return rotation * (x - centre) + centre + shift;
+      return rotation * (x - centre + Vector3d(shear * (x.y() - 0.5), 0.0, 0.0)) + centre + shift;
     };
     // The corner beyond x, y = 0.94 lifted 15 cm (a hundredth of the nodes: the shift
     // of the rest stays within their radii); a 2 cm bulge.
@@ -1036,6 +1039,7 @@ TEST(Detect, AShapeChecksBoundGivesTheNearTetsOfTheBodysOwnComparison) {
       if (taken && b.bounded && !b.rebuilt && frame != 17 && frame != 18) {
         EXPECT_TRUE(bodies.bound.groups_from_bound());
         moved_from_bound += b.moved.empty() ? 0 : 1;
+        turned_from_bound += b.rotated ? 1 : 0;
       }
     }
     from_bound += bodies.bound.groups_from_bound() ? 1 : 0;
@@ -1051,8 +1055,9 @@ TEST(Detect, AShapeChecksBoundGivesTheNearTetsOfTheBodysOwnComparison) {
   EXPECT_GE(busy_not_rebuilt, 1);
   EXPECT_GE(moved_from_bound, 8);
   EXPECT_GE(lifted_contact, 3);
-  EXPECT_GE(from_bound, 14);
-  EXPECT_GE(contact, 20);  // not on the rest frames where the tool went on to the corner
+  EXPECT_GE(turned_from_bound, 6);
+  EXPECT_GE(from_bound, 20);
+  EXPECT_GE(contact, 23);  // not on the rest frames where the tool went on to the corner
 }
 
 // The bound covers nodes that moved within their radius: a top node raised by 0.9 of its

@@ -348,6 +348,8 @@ void CollisionBody::apply_bound(const MotionBound& b) {
   }
   bound_version_ = b.version_after;
   bound_shift_ = b.shift;
+  bound_rotated_ = b.rotated;
+  bound_rotation_ = b.rotation;
 }
 
 void CollisionBody::start_frame(const Positions& positions, const Aabb* box,
@@ -446,9 +448,14 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
     // every cluster box directly.
     if (use_groups_ && bound_frame_) {
       // Every node lies within its radius of its reference in the shape check moved by
-      // the shift. The check's rounding of that distance and this box's are below 8 eps
-      // of the size of the coordinates: 32 eps covers them.
+      // the shift (turned first when bound_rotated_). The check's rounding of that distance
+      // and this box's are below 8 eps of the size of the coordinates: 32 eps covers them.
+      // After a turn, the turned box's centre and half-widths (|R| h) are sums of three
+      // products, each rounded, and so is the check's turned reference: below 16 eps of
+      // the size each, 64 eps covers them.
       const double shift_size = bound_shift_.cwiseAbs().maxCoeff();
+      const double slack = (bound_rotated_ ? 64.0 : 32.0) * std::numeric_limits<double>::epsilon();
+      const Eigen::Matrix3d turn_size = bound_rotation_.cwiseAbs();
       detail::for_chunks(groups, 64, [&](std::size_t begin, std::size_t end, std::size_t) {
         for (std::size_t g = begin; g < end; ++g) {
           const Aabb& q = bound_boxes_[g];
@@ -458,9 +465,15 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
           }
           const double size =
               q.lo.cwiseAbs().cwiseMax(q.hi.cwiseAbs()).maxCoeff() + shift_size + bound_radius_[g];
-          const Eigen::Vector3d grow = Eigen::Vector3d::Constant(
-              bound_radius_[g] + 32.0 * std::numeric_limits<double>::epsilon() * size);
-          group_boxes_[g] = Aabb{q.lo + bound_shift_ - grow, q.hi + bound_shift_ + grow};
+          const Eigen::Vector3d grow = Eigen::Vector3d::Constant(bound_radius_[g] + slack * size);
+          if (bound_rotated_) {
+            const Eigen::Vector3d centre =
+                bound_rotation_ * (0.5 * (q.lo + q.hi)).eval() + bound_shift_;
+            const Eigen::Vector3d half = turn_size * (0.5 * (q.hi - q.lo)).eval() + grow;
+            group_boxes_[g] = Aabb{centre - half, centre + half};
+          } else {
+            group_boxes_[g] = Aabb{q.lo + bound_shift_ - grow, q.hi + bound_shift_ + grow};
+          }
         }
       });
     } else if (use_groups_) {

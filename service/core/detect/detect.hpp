@@ -180,7 +180,8 @@ class CollisionBody {
   /// The group boxes from a shape check's bound (set_positions() with a MotionBound): per
   /// group the box of its nodes' references in the check and a radius at least each of
   /// its nodes' radii there since the version taken (it only grows until the next
-  /// resync); a frame's group box is that box moved by the check's shift and grown by the
+  /// resync); a frame's group box is that box moved by the check's shift (after its turn,
+  /// when the check turned the references: the box of the turned box) and grown by the
   /// radius and the rounding.
   std::vector<Aabb> bound_boxes_;
   std::vector<double> bound_radius_;
@@ -188,6 +189,8 @@ class CollisionBody {
   std::optional<std::uint64_t> bound_version_;
   bool bound_frame_ = false;  ///< this frame's group boxes come from the bound
   Eigen::Vector3d bound_shift_ = Eigen::Vector3d::Zero();
+  bool bound_rotated_ = false;  ///< the check turned the references: bound_rotation_
+  Eigen::Matrix3d bound_rotation_ = Eigen::Matrix3d::Identity();
   std::vector<Index> bound_dirty_;  ///< scratch
   /// Takes in a shape check's bound of this frame's positions (sets bound_frame_).
   void apply_bound(const MotionBound& bound);

@@ -1,5 +1,6 @@
 #include "core/mesh/shape_check.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -7,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -72,6 +74,73 @@ std::size_t pass_chunk(std::size_t n) {
   const double dy = x[1] - r[1] - shift[1];
   const double dz = x[2] - r[2] - shift[2];
   return dx * dx + dy * dy + dz * dz;
+}
+
+/// The same after a turn: the squared distance of x from rot r + shift, rot by rows. The one
+/// expression of the test after a rigid motion (ShapeCheck::check, detail::motion_pass).
+[[gnu::always_inline]] inline double rigid_motion2(const double* x, const double* r,
+                                                   const double* shift, const double* rot) {
+  const double dx = x[0] - (rot[0] * r[0] + rot[1] * r[1] + rot[2] * r[2] + shift[0]);
+  const double dy = x[1] - (rot[3] * r[0] + rot[4] * r[1] + rot[5] * r[2] + shift[1]);
+  const double dz = x[2] - (rot[6] * r[0] + rot[7] * r[1] + rot[8] * r[2] + shift[2]);
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/// A rigid motion x = rot r + shift (rot by rows, a proper rotation up to rounding).
+struct Rigid {
+  double rot[9];
+  double shift[3];
+};
+
+/// The rigid motion that maps the references r of the nodes sample(visit) visits onto their
+/// positions x best in least squares: Horn's closed form (J. Opt. Soc. Am. A 4(4), 1987),
+/// the unit quaternion of the largest eigenvalue of a symmetric 4x4 matrix made from the
+/// cross-covariance of the centred points, then the shift between the centroids. One
+/// order of sums, so the same bits for the same nodes. Nothing when a sum is not finite
+/// (a NaN or an infinite node) or the quaternion is not (a degenerate sample).
+template <typename Sample>
+std::optional<Rigid> fit_rigid(const double* x, const double* r, const Sample& sample) {
+  double cx[3] = {}, cr[3] = {};
+  std::size_t count = 0;
+  sample([&](std::size_t i) {
+    for (int c = 0; c < 3; ++c) {
+      cx[c] += x[3 * i + c];
+      cr[c] += r[3 * i + c];
+    }
+    ++count;
+  });
+  if (count == 0) return std::nullopt;
+  for (int c = 0; c < 3; ++c) {
+    cx[c] /= static_cast<double>(count);
+    cr[c] /= static_cast<double>(count);
+  }
+  double h[3][3] = {};  // sum of (r - cr)(x - cx)^T
+  sample([&](std::size_t i) {
+    const double a[3] = {r[3 * i] - cr[0], r[3 * i + 1] - cr[1], r[3 * i + 2] - cr[2]};
+    const double b[3] = {x[3 * i] - cx[0], x[3 * i + 1] - cx[1], x[3 * i + 2] - cx[2]};
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) h[j][k] += a[j] * b[k];
+  });
+  Eigen::Matrix4d n;
+  n << h[0][0] + h[1][1] + h[2][2], h[1][2] - h[2][1], h[2][0] - h[0][2], h[0][1] - h[1][0],  //
+      h[1][2] - h[2][1], h[0][0] - h[1][1] - h[2][2], h[0][1] + h[1][0], h[2][0] + h[0][2],   //
+      h[2][0] - h[0][2], h[0][1] + h[1][0], -h[0][0] + h[1][1] - h[2][2], h[1][2] + h[2][1],  //
+      h[0][1] - h[1][0], h[2][0] + h[0][2], h[1][2] + h[2][1], -h[0][0] - h[1][1] + h[2][2];
+  if (!n.allFinite()) return std::nullopt;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eigen(n);
+  if (eigen.info() != Eigen::Success) return std::nullopt;
+  const Eigen::Vector4d q = eigen.eigenvectors().col(3);  // eigenvalues ascend
+  const Eigen::Quaterniond turn(q[0], q[1], q[2], q[3]);
+  if (!(turn.norm() > 0.5)) return std::nullopt;  // not finite, or not a unit vector
+  const Eigen::Matrix3d rot = turn.normalized().toRotationMatrix();
+  Rigid m;
+  for (int j = 0; j < 3; ++j) {
+    for (int k = 0; k < 3; ++k) m.rot[3 * j + k] = rot(j, k);
+    m.shift[j] = cx[j] - (rot(j, 0) * cr[0] + rot(j, 1) * cr[1] + rot(j, 2) * cr[2]);
+  }
+  for (const double v : m.shift)
+    if (!std::isfinite(v)) return std::nullopt;
+  return m;
 }
 
 }  // namespace
@@ -187,11 +256,13 @@ namespace detail {
 
 /// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
-                 std::size_t begin, std::size_t end, std::vector<Index>& moved, PointBox& box) {
+                 const double* rot, std::size_t begin, std::size_t end, std::vector<Index>& moved,
+                 PointBox& box) {
 #if TC_HAS_AVX2_REGION
-  if (use_avx2_kernels()) return avx2::motion_pass(x, blocks, rad2, shift, begin, end, moved, box);
+  if (use_avx2_kernels())
+    return avx2::motion_pass(x, blocks, rad2, shift, rot, begin, end, moved, box);
 #endif
-  baseline::motion_pass(x, blocks, rad2, shift, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, rot, begin, end, moved, box);
 }
 
 }  // namespace detail
@@ -279,6 +350,9 @@ void ShapeCheck::rebuild(const Positions& positions) {
   last_.rebuilt = true;
   last_.bounded = true;  // every node at its reference, no shift
   last_.shift.setZero();
+  last_.rotated = false;
+  last_.rotation.setIdentity();
+  turning_ = false;
   last_.version_after = ++version_;
 }
 
@@ -289,6 +363,8 @@ MotionBound ShapeCheck::bound() const {
   b.version_before = last_.version_before;
   b.version_after = last_.version_after;
   b.shift = last_.shift;
+  b.rotated = last_.rotated;
+  b.rotation = last_.rotation;
   b.reference = &reference_;
   b.radius2 = radius2_;
   if (b.version_after != b.version_before && !b.rebuilt) {
@@ -334,20 +410,56 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   const double shift[3] = {sx / count, sy / count, sz / count};
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
-  const auto beyond = [&](std::size_t i) {
-    return !(motion2(x + 3 * i, r + 3 * i, shift) <= radius2_[i]);  // NaN: beyond
+  // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
+  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1}, {shift[0], shift[1], shift[2]}};
+  bool turned = false;
+  const auto visit_sample = [&](const auto& visit) {
+    for (std::size_t b = 0; b < n; b += period)
+      for (std::size_t i = b; i < std::min(b + run, n); ++i) visit(i);
+  };
+  const auto fit = [&] {
+    auto m = fit_rigid(x, r, visit_sample);
+    if (m) {
+      // Fitted again to the nodes the first fit leaves within their radii: a few nodes
+      // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
+      // beyond their radii too.
+      // (None beyond, as when the object only turned: the same nodes, the same fit.)
+      const Rigid first = *m;
+      const auto within = [&](const auto& visit) {
+        visit_sample([&](std::size_t i) {
+          if (rigid_motion2(x + 3 * i, r + 3 * i, first.shift, first.rot) <= radius2_[i]) visit(i);
+        });
+      };
+      std::size_t inside = 0;
+      within([&](std::size_t) { ++inside; });
+      if (inside < samples)
+        if (const auto second = fit_rigid(x, r, within)) m = second;
+    }
+    if (m) motion = *m;
+    turned = m.has_value();
+    return turned;
+  };
+  const auto beyond = [&](std::size_t i) {  // NaN: beyond
+    const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.rot)
+                             : motion2(x + 3 * i, r + 3 * i, motion.shift);
+    return !(d2 <= radius2_[i]);
   };
   const auto busy = [&] {
     ++busy_streak_;
     return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
   };
+  // An object that was turning is compared after a turn straight away (a translation alone
+  // would leave most of its nodes beyond their radii).
+  if (turning_ && !fit()) return busy();
   if (sampled) {  // a rotation shows in the sample: no need to look at every node
-    std::size_t moved = 0;
-    for (std::size_t b = 0; b < n; b += period)
-      for (std::size_t i = b; i < std::min(b + run, n); ++i) moved += beyond(i) ? 1 : 0;
-    if (kBusyFraction * moved > samples) return busy();
+    const auto sample_busy = [&] {
+      std::size_t moved = 0;
+      visit_sample([&](std::size_t i) { moved += beyond(i) ? 1 : 0; });
+      return kBusyFraction * moved > samples;
+    };
+    if (sample_busy() && (turned || !fit() || sample_busy())) return busy();
   }
-  {
+  const auto pass = [&] {
     // The box of the positions on the way: the nodes are in cache, and the detection
     // then need not read them again. In chunks of nodes (pass_chunk(); one for a small
     // object), each with its own list and box, joined in chunk order: moved_ comes sorted, and
@@ -357,10 +469,11 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     const std::size_t chunks = detail::num_chunks(n, chunk);
     detail::reset_parts(moved_parts_, chunks);
     pass_boxes_.assign(chunks, PointBox{});
+    const double* rot = turned ? motion.rot : nullptr;
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      detail::motion_pass(x, blocks_.data(), radius2_.data(), shift, begin, end, moved_parts_[c],
-                          box);
+      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, rot, begin, end,
+                          moved_parts_[c], box);
       pass_boxes_[c] = box;
     });
     detail::concat_parts(moved_parts_, chunks, moved_);
@@ -369,7 +482,10 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     last_.has_box = true;
     last_.box_lo = box.lo();
     last_.box_hi = box.hi();
-  }
+  };
+  pass();
+  // A small object has no sample: its pass tells, and a turn is tried after it.
+  if (kBusyFraction * moved_.size() > n && !sampled && !turned && fit()) pass();
   last_.moved_nodes = moved_.size();
   if (kBusyFraction * moved_.size() > n) return busy();
   // Every node that is not finite is beyond its radius (orphans' radius is the largest
@@ -397,16 +513,25 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   detail::check_tet_shapes(positions, tets_, index_, options_, report);
   last_.checked_tets = places_.size();
   if (!report.clean()) return report;
-  // Every node that did not move is within its radius of its reference (shifted); those
-  // that did are made their own reference below.
+  // Every node that did not move is within its radius of its reference (shifted, and
+  // turned when `turned`); those that did are made their own reference below.
   last_.bounded = true;
-  last_.shift = Eigen::Vector3d(shift[0], shift[1], shift[2]);
+  last_.shift = Eigen::Vector3d(motion.shift[0], motion.shift[1], motion.shift[2]);
+  last_.rotated = turned;
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 3; ++k) last_.rotation(j, k) = motion.rot[3 * j + k];
+  turning_ = turned;
   if (moved_.empty()) return report;
 
-  // Accepted: the nodes that moved join the reference (moved back by the shift, like the
-  // rest of it), and the radii of their tets and of those tets' nodes are recomputed.
+  // Accepted: the nodes that moved join the reference (moved back by the shift and turned
+  // back, like the rest of it), and the radii of their tets and of those tets' nodes are
+  // recomputed.
+  const double* m = motion.rot;
   for (const Index i : moved_) {
-    for (int c = 0; c < 3; ++c) reference_(c, i) = positions(c, i) - shift[c];
+    const double u[3] = {positions(0, i) - motion.shift[0], positions(1, i) - motion.shift[1],
+                         positions(2, i) - motion.shift[2]};
+    for (int c = 0; c < 3; ++c)
+      reference_(c, i) = turned ? m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2] : u[c];
     set_block_node(i);
   }
   compute_radii(

@@ -27,12 +27,13 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
 
 /// What ShapeCheck::check() proved of the state it was given, for the detection's group
 /// boxes (CollisionBody::set_positions): when `bounded`, the state is clean and every node
-/// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift (the test check()
-/// makes, up to its rounding), with radius2 as it was before this check changed it: the
-/// span holds the radii after it, which differ only at the nodes in `changed` (new radii
-/// around the nodes that moved, for the next state); the nodes in `moved` got new
-/// references, their positions less the shift. `version_before` and `version_after` number the
-/// reference and radii before and after this check (they differ exactly when `moved` and
+/// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift, or, when `rotated`,
+/// of rotation * reference.col(i) + shift (the test check() makes, up to its rounding),
+/// with radius2 as it was before this check changed it: the span holds the radii after it,
+/// which differ only at the nodes in `changed` (new radii around the nodes that moved, for
+/// the next state); the nodes in `moved` got new references, their positions less the
+/// shift (and turned back: rotation^T * (x - shift)). `version_before` and `version_after` number
+/// the reference and radii before and after this check (they differ exactly when `moved` and
 /// `changed` say what changed, or when `rebuilt`: every node's reference and radius is
 /// new, the reference is the state itself and the shift 0). The spans and the pointer are
 /// valid until the next check().
@@ -41,6 +42,8 @@ struct MotionBound {
   bool rebuilt = false;
   std::uint64_t version_before = 0, version_after = 0;
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  bool rotated = false;  ///< the rigid motion turns too: `rotation` (else the identity)
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   const Positions* reference = nullptr;
   std::span<const double> radius2;  ///< per node, after this check: -1 always checked
   std::span<const Index> moved, changed;
@@ -49,15 +52,20 @@ struct MotionBound {
 /// validate_positions() for the successive states of one object, the same reports at a
 /// cost that follows how far the nodes moved.
 ///
-/// A reference shape is kept (the last accepted positions of each node, up to one
-/// translation of the whole object) with, per node, a radius r_i = min over its tets of
+/// A reference shape is kept (the last accepted positions of each node, up to one rigid
+/// motion of the whole object) with, per node, a radius r_i = min over its tets of
 /// certified_motion_radius() at the reference (the sliver threshold as the quality). A
 /// new state is compared with the reference after removing the mean displacement (of
 /// runs of 8 nodes every 512 on objects of over 8,192 nodes; a translation changes no
 /// shape): a tet whose four nodes all stayed within their radii
 /// is surely neither degenerate, inverted nor a sliver, and only the tets of the nodes
 /// that moved further are checked. When the state is clean, those nodes become part of
-/// the reference and the radii around them are recomputed. A still or rigidly moving
+/// the reference and the radii around them are recomputed. When the mean displacement
+/// leaves more than a quarter of the nodes (or of the sample) beyond their radii, the
+/// rigid motion that fits the same nodes best in least squares (a turn and a shift; Horn's
+/// unit quaternion) is tried in its place, and kept while the object goes on turning: a
+/// rotation changes no shape either (docs/DETECTION.md, "Rigid motions in the shape
+/// check"). A still or rigidly moving
 /// object costs one pass over its positions, its reference and its radii a frame (about
 /// 2.5x what reading the positions alone costs: it reads 56 bytes a node, the positions
 /// 24; the reference is kept a second time for it, by blocks of four nodes coordinate by
@@ -66,8 +74,8 @@ struct MotionBound {
 /// What a check proved of its state's nodes (bound()) lets the detection keep the group
 /// boxes of its cull without reading the nodes again (CollisionBody::set_positions).
 ///
-/// When more than a quarter of the nodes moved (a rotation, a large deformation; on a
-/// large object a quarter of the sampled nodes already tells) every tet is checked as by
+/// When more than a quarter of the nodes moved under both motions (a large deformation;
+/// on a large object a quarter of the sampled nodes already tells) every tet is checked as by
 /// validate_positions(), and the reference is rebuilt on the 1st, 2nd, 4th, 8th, ... such
 /// state in a row (the radii cost about a full check, so an object that keeps moving pays
 /// for them less and less often).
@@ -93,6 +101,8 @@ class ShapeCheck {
     Eigen::Vector3d box_lo = Eigen::Vector3d::Zero(), box_hi = Eigen::Vector3d::Zero();
     bool bounded = false;  ///< MotionBound::bounded
     Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    bool rotated = false;  ///< MotionBound::rotated: the nodes were compared after a turn
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
     std::uint64_t version_before = 0, version_after = 0;
   };
 
@@ -134,6 +144,7 @@ class ShapeCheck {
   std::vector<Tet> tets_;
   std::vector<Index> index_;
   std::size_t busy_streak_ = 0;  ///< full checks in a row
+  bool turning_ = false;         ///< the last accepted state was compared after a turn
   std::uint64_t version_ = 0;    ///< changes of reference_ and radius2_ so far
   Stats last_;
 };
