@@ -326,25 +326,31 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
   // A proper rotation, to rounding.
   EXPECT_LT((b.rotation.transpose() * b.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-14);
   EXPECT_GT(b.rotation.determinant(), 0.0);
+  if (!b.rotated) {
+    EXPECT_EQ(b.pivot, Eigen::Vector3d::Zero());
+  }
   const Eigen::Matrix3d& m = b.rotation;
+  const Eigen::Vector3d& p = b.pivot;
   for (Index i = 0; i < x.cols(); ++i) {
     const auto k = static_cast<std::size_t>(i);
     if (moved[k]) {
       EXPECT_TRUE(changed[k]) << i;
-      const Eigen::Vector3d u = x.col(i) - b.shift;  // turned back: m^T u, sums in this order
+      // Turned back about the pivot: m^T u + p, the sums in this order.
+      const Eigen::Vector3d u = x.col(i) - b.shift;
       for (int c = 0; c < 3; ++c) {
-        const double want = b.rotated ? m(0, c) * u[0] + m(1, c) * u[1] + m(2, c) * u[2] : u[c];
+        const double want =
+            b.rotated ? (m(0, c) * u[0] + m(1, c) * u[1] + m(2, c) * u[2]) + p[c] : u[c];
         EXPECT_EQ(q(c, i), want) << i;
       }
       continue;
     }
     EXPECT_EQ(q.col(i), reference.col(i)) << i;
+    const Eigen::Vector3d r = reference.col(i) - p;  // after a turn: (x - s) - m (q - p)
     double d2 = 0.0;
     for (int c = 0; c < 3; ++c) {
-      const double d = b.rotated
-                           ? x(c, i) - (m(c, 0) * reference(0, i) + m(c, 1) * reference(1, i) +
-                                        m(c, 2) * reference(2, i) + b.shift[c])
-                           : x(c, i) - reference(c, i) - b.shift[c];
+      const double d =
+          b.rotated ? (x(c, i) - b.shift[c]) - (m(c, 0) * r[0] + m(c, 1) * r[1] + m(c, 2) * r[2])
+                    : x(c, i) - reference(c, i) - b.shift[c];
       d2 += d * d;
     }
     EXPECT_LE(d2, radius2[k]) << i;

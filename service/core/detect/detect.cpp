@@ -350,6 +350,7 @@ void CollisionBody::apply_bound(const MotionBound& b) {
   bound_shift_ = b.shift;
   bound_rotated_ = b.rotated;
   bound_rotation_ = b.rotation;
+  bound_pivot_ = b.pivot;
 }
 
 void CollisionBody::start_frame(const Positions& positions, const Aabb* box,
@@ -450,10 +451,12 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
       // Every node lies within its radius of its reference in the shape check moved by
       // the shift (turned first when bound_rotated_). The check's rounding of that distance
       // and this box's are below 8 eps of the size of the coordinates: 32 eps covers them.
-      // After a turn, the turned box's centre and half-widths (|R| h) are sums of three
-      // products, each rounded, and so is the check's turned reference: below 16 eps of
-      // the size each, 64 eps covers them.
-      const double shift_size = bound_shift_.cwiseAbs().maxCoeff();
+      // After a turn about the pivot p, the turned box's centre R (c - p) + s and
+      // half-widths |R| h are sums of three products, each rounded, and so is the check's
+      // turned reference: below 16 eps of the size (the pivot's included) each, 64 eps
+      // covers them.
+      const double shift_size = bound_shift_.cwiseAbs().maxCoeff() +
+                                bound_pivot_.cwiseAbs().maxCoeff();  // (pivot 0: no turn)
       const double slack = (bound_rotated_ ? 64.0 : 32.0) * std::numeric_limits<double>::epsilon();
       const Eigen::Matrix3d turn_size = bound_rotation_.cwiseAbs();
       detail::for_chunks(groups, 64, [&](std::size_t begin, std::size_t end, std::size_t) {
@@ -468,7 +471,7 @@ void CollisionBody::tets_near(const Aabb& region, std::vector<Index>& out) {
           const Eigen::Vector3d grow = Eigen::Vector3d::Constant(bound_radius_[g] + slack * size);
           if (bound_rotated_) {
             const Eigen::Vector3d centre =
-                bound_rotation_ * (0.5 * (q.lo + q.hi)).eval() + bound_shift_;
+                bound_rotation_ * (0.5 * (q.lo + q.hi) - bound_pivot_).eval() + bound_shift_;
             const Eigen::Vector3d half = turn_size * (0.5 * (q.hi - q.lo)).eval() + grow;
             group_boxes_[g] = Aabb{centre - half, centre + half};
           } else {

@@ -191,6 +191,7 @@ class CollisionBody {
   Eigen::Vector3d bound_shift_ = Eigen::Vector3d::Zero();
   bool bound_rotated_ = false;  ///< the check turned the references: bound_rotation_
   Eigen::Matrix3d bound_rotation_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d bound_pivot_ = Eigen::Vector3d::Zero();
   std::vector<Index> bound_dirty_;  ///< scratch
   /// Takes in a shape check's bound of this frame's positions (sets bound_frame_).
   void apply_bound(const MotionBound& bound);

@@ -76,19 +76,24 @@ std::size_t pass_chunk(std::size_t n) {
   return dx * dx + dy * dy + dz * dz;
 }
 
-/// The same after a turn: the squared distance of x from rot r + shift, rot by rows. The one
-/// expression of the test after a rigid motion (ShapeCheck::check, detail::motion_pass).
+/// The same after a turn: the squared distance of x from R (r - p) + shift, with turn = R by
+/// rows, then the pivot p. Computed as (x - shift) - R (r - p): both differences are of
+/// nearby numbers, so the rounding is of the order of the object's size, not of its
+/// distance from the origin. The one expression of the test after a rigid motion
+/// (ShapeCheck::check, detail::motion_pass).
 [[gnu::always_inline]] inline double rigid_motion2(const double* x, const double* r,
-                                                   const double* shift, const double* rot) {
-  const double dx = x[0] - (rot[0] * r[0] + rot[1] * r[1] + rot[2] * r[2] + shift[0]);
-  const double dy = x[1] - (rot[3] * r[0] + rot[4] * r[1] + rot[5] * r[2] + shift[1]);
-  const double dz = x[2] - (rot[6] * r[0] + rot[7] * r[1] + rot[8] * r[2] + shift[2]);
+                                                   const double* shift, const double* turn) {
+  const double qx = r[0] - turn[9], qy = r[1] - turn[10], qz = r[2] - turn[11];
+  const double dx = (x[0] - shift[0]) - (turn[0] * qx + turn[1] * qy + turn[2] * qz);
+  const double dy = (x[1] - shift[1]) - (turn[3] * qx + turn[4] * qy + turn[5] * qz);
+  const double dz = (x[2] - shift[2]) - (turn[6] * qx + turn[7] * qy + turn[8] * qz);
   return dx * dx + dy * dy + dz * dz;
 }
 
-/// A rigid motion x = rot r + shift (rot by rows, a proper rotation up to rounding).
+/// A rigid motion x = R (r - p) + shift: turn holds R by rows (a proper rotation up to
+/// rounding), then the pivot p.
 struct Rigid {
-  double rot[9];
+  double turn[12];
   double shift[3];
 };
 
@@ -133,12 +138,13 @@ std::optional<Rigid> fit_rigid(const double* x, const double* r, const Sample& s
   const Eigen::Quaterniond turn(q[0], q[1], q[2], q[3]);
   if (!(turn.norm() > 0.5)) return std::nullopt;  // not finite, or not a unit vector
   const Eigen::Matrix3d rot = turn.normalized().toRotationMatrix();
-  Rigid m;
+  Rigid m;  // about the references' centroid, onto the positions'
   for (int j = 0; j < 3; ++j) {
-    for (int k = 0; k < 3; ++k) m.rot[3 * j + k] = rot(j, k);
-    m.shift[j] = cx[j] - (rot(j, 0) * cr[0] + rot(j, 1) * cr[1] + rot(j, 2) * cr[2]);
+    for (int k = 0; k < 3; ++k) m.turn[3 * j + k] = rot(j, k);
+    m.turn[9 + j] = cr[j];
+    m.shift[j] = cx[j];
   }
-  for (const double v : m.shift)
+  for (const double v : m.turn)
     if (!std::isfinite(v)) return std::nullopt;
   return m;
 }
@@ -256,13 +262,13 @@ namespace detail {
 
 /// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
-                 const double* rot, std::size_t begin, std::size_t end, std::vector<Index>& moved,
+                 const double* turn, std::size_t begin, std::size_t end, std::vector<Index>& moved,
                  PointBox& box) {
 #if TC_HAS_AVX2_REGION
   if (use_avx2_kernels())
-    return avx2::motion_pass(x, blocks, rad2, shift, rot, begin, end, moved, box);
+    return avx2::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
 #endif
-  baseline::motion_pass(x, blocks, rad2, shift, rot, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
 }
 
 }  // namespace detail
@@ -352,6 +358,7 @@ void ShapeCheck::rebuild(const Positions& positions) {
   last_.shift.setZero();
   last_.rotated = false;
   last_.rotation.setIdentity();
+  last_.pivot.setZero();
   turning_ = false;
   last_.version_after = ++version_;
 }
@@ -365,6 +372,7 @@ MotionBound ShapeCheck::bound() const {
   b.shift = last_.shift;
   b.rotated = last_.rotated;
   b.rotation = last_.rotation;
+  b.pivot = last_.pivot;
   b.reference = &reference_;
   b.radius2 = radius2_;
   if (b.version_after != b.version_before && !b.rebuilt) {
@@ -411,7 +419,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
   // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
-  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1}, {shift[0], shift[1], shift[2]}};
+  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}};
   bool turned = false;
   const auto visit_sample = [&](const auto& visit) {
     for (std::size_t b = 0; b < n; b += period)
@@ -427,7 +435,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
       const Rigid first = *m;
       const auto within = [&](const auto& visit) {
         visit_sample([&](std::size_t i) {
-          if (rigid_motion2(x + 3 * i, r + 3 * i, first.shift, first.rot) <= radius2_[i]) visit(i);
+          if (rigid_motion2(x + 3 * i, r + 3 * i, first.shift, first.turn) <= radius2_[i]) visit(i);
         });
       };
       std::size_t inside = 0;
@@ -440,7 +448,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     return turned;
   };
   const auto beyond = [&](std::size_t i) {  // NaN: beyond
-    const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.rot)
+    const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.turn)
                              : motion2(x + 3 * i, r + 3 * i, motion.shift);
     return !(d2 <= radius2_[i]);
   };
@@ -469,10 +477,10 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     const std::size_t chunks = detail::num_chunks(n, chunk);
     detail::reset_parts(moved_parts_, chunks);
     pass_boxes_.assign(chunks, PointBox{});
-    const double* rot = turned ? motion.rot : nullptr;
+    const double* turn = turned ? motion.turn : nullptr;
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, rot, begin, end,
+      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, begin, end,
                           moved_parts_[c], box);
       pass_boxes_[c] = box;
     });
@@ -519,19 +527,21 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   last_.shift = Eigen::Vector3d(motion.shift[0], motion.shift[1], motion.shift[2]);
   last_.rotated = turned;
   for (int j = 0; j < 3; ++j)
-    for (int k = 0; k < 3; ++k) last_.rotation(j, k) = motion.rot[3 * j + k];
+    for (int k = 0; k < 3; ++k) last_.rotation(j, k) = motion.turn[3 * j + k];
+  last_.pivot = Eigen::Vector3d(motion.turn[9], motion.turn[10], motion.turn[11]);
   turning_ = turned;
   if (moved_.empty()) return report;
 
   // Accepted: the nodes that moved join the reference (moved back by the shift and turned
   // back, like the rest of it), and the radii of their tets and of those tets' nodes are
   // recomputed.
-  const double* m = motion.rot;
+  const double* m = motion.turn;
   for (const Index i : moved_) {
     const double u[3] = {positions(0, i) - motion.shift[0], positions(1, i) - motion.shift[1],
                          positions(2, i) - motion.shift[2]};
     for (int c = 0; c < 3; ++c)
-      reference_(c, i) = turned ? m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2] : u[c];
+      reference_(c, i) =
+          turned ? (m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2]) + m[9 + c] : u[c];
     set_block_node(i);
   }
   compute_radii(

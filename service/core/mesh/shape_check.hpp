@@ -28,11 +28,13 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
 /// What ShapeCheck::check() proved of the state it was given, for the detection's group
 /// boxes (CollisionBody::set_positions): when `bounded`, the state is clean and every node
 /// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift, or, when `rotated`,
-/// of rotation * reference.col(i) + shift (the test check() makes, up to its rounding),
+/// of rotation * (reference.col(i) - pivot) + shift (the test check() makes, up to its
+/// rounding),
 /// with radius2 as it was before this check changed it: the span holds the radii after it,
 /// which differ only at the nodes in `changed` (new radii around the nodes that moved, for
 /// the next state); the nodes in `moved` got new references, their positions less the
-/// shift (and turned back: rotation^T * (x - shift)). `version_before` and `version_after` number
+/// shift (and turned back: rotation^T * (x - shift) + pivot). `version_before` and
+/// `version_after` number
 /// the reference and radii before and after this check (they differ exactly when `moved` and
 /// `changed` say what changed, or when `rebuilt`: every node's reference and radius is
 /// new, the reference is the state itself and the shift 0). The spans and the pointer are
@@ -42,8 +44,9 @@ struct MotionBound {
   bool rebuilt = false;
   std::uint64_t version_before = 0, version_after = 0;
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
-  bool rotated = false;  ///< the rigid motion turns too: `rotation` (else the identity)
+  bool rotated = false;  ///< the rigid motion turns too: `rotation` about `pivot`
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();  ///< (0 when not rotated)
   const Positions* reference = nullptr;
   std::span<const double> radius2;  ///< per node, after this check: -1 always checked
   std::span<const Index> moved, changed;
@@ -103,6 +106,7 @@ class ShapeCheck {
     Eigen::Vector3d shift = Eigen::Vector3d::Zero();
     bool rotated = false;  ///< MotionBound::rotated: the nodes were compared after a turn
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
     std::uint64_t version_before = 0, version_after = 0;
   };
 
