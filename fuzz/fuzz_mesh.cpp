@@ -2,6 +2,8 @@
 // (up to 48 nodes on a small grid with hard values mixed in, up to 96 tets whose indices
 // are mostly in range). validate_mesh() must classify any mesh; a mesh it does not call
 // structurally invalid must build a topology whose lists are consistent.
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cstdint>
 
@@ -91,7 +93,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const tc::TetCheckOrder order = tc::make_tet_check_order(mesh.positions, mesh.tets);
     tc::ShapeCheck check(order, topo.node_tets, mesh.num_nodes(), options);
     tc::Positions x = mesh.positions;
-    for (int step = 0; step < 8; ++step) {
+    const auto agree = [&] {
       const tc::ValidationReport got = check.check(x);
       const tc::ValidationReport want = tc::validate_positions(x, order, options);
       TC_FUZZ_CHECK(got.nonfinite_node.count == want.nonfinite_node.count &&
@@ -101,9 +103,30 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       TC_FUZZ_CHECK(got.inverted.count == want.inverted.count &&
                     got.inverted.first == want.inverted.first);
       TC_FUZZ_CHECK(got.sliver.count == want.sliver.count && got.sliver.first == want.sliver.first);
+    };
+    for (int step = 0; step < 8; ++step) {
+      agree();
       if (n == 0 || in.remaining() == 0) break;
       const auto node = static_cast<Eigen::Index>(in.small(n));
       x(static_cast<Eigen::Index>(in.small(3)), node) = in.coordinate();
+    }
+    // Then (input left over) the whole state turned and shifted, now and then with one node
+    // moved too: the check's fitted rigid motion. After the steps above, so that the
+    // inputs found before read as they did.
+    for (int step = 0; step < 6 && n > 0 && in.remaining() > 0; ++step) {
+      const std::uint8_t turn = in.take<std::uint8_t>();
+      const Eigen::Vector3d axis[3] = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d(1, 2, 3),
+                                       Eigen::Vector3d(-2, 1, 0.5)};
+      const Eigen::Matrix3d rotation =
+          Eigen::AngleAxisd(0.02 * (turn % 64), axis[turn / 64 % 3].normalized())
+              .toRotationMatrix();
+      const Eigen::Vector3d shift(0.01 * (turn % 7), -0.02 * (turn % 5), 0.0);
+      x = (rotation * x).colwise() + shift;
+      if (turn >= 192) {
+        const auto node = static_cast<Eigen::Index>(in.small(n));
+        x(static_cast<Eigen::Index>(in.small(3)), node) = in.coordinate();
+      }
+      agree();
     }
   }
   return 0;

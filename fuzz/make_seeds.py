@@ -96,6 +96,12 @@ def mesh():
         mesh_seed(TET + [(1.0, 1.0, 1.0), (-1.0, -1.0, -1.0)],
                   [(0, 1, 2, 3), (1, 2, 3, 4), (1, 2, 3, 0)]))
     (d / "orphans").write_bytes(mesh_seed(TET + [(3.0, 3.0, 3.0)], [(0, 1, 2, 3)]))
+    # The cube through the 8 one-node steps (node 0's x set to 0.0 again each time), then
+    # turned and shifted six times (turn bytes: angle 0.02 * (b % 64) rad, axis b / 64 % 3;
+    # from 192 on, one node moved as well: node 7's z to 1.5).
+    steps = bytes([0, 0, 2]) * 8
+    turns = bytes([10, 75, 140, 30, 200, 7, 2, 5, 250, 7, 2, 3])
+    (d / "cube_turning").write_bytes(mesh_seed(CUBE, CUBE_FIVE) + steps + turns)
 
 
 def samples_seed(rest, tets, state_moves, response=2, static=0):
