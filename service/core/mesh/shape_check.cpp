@@ -99,10 +99,11 @@ struct Rigid {
 
 /// The rigid motion that maps the references r of the nodes sample(visit) visits onto their
 /// positions x best in least squares: Horn's closed form (J. Opt. Soc. Am. A 4(4), 1987),
-/// the unit quaternion of the largest eigenvalue of a symmetric 4x4 matrix made from the
-/// cross-covariance of the centred points, then the shift between the centroids. One
-/// order of sums, so the same bits for the same nodes. Nothing when a sum is not finite
-/// (a NaN or an infinite node) or the quaternion is not (a degenerate sample).
+/// R from the unit eigenvector of the largest eigenvalue of a symmetric 4x4 matrix made from
+/// the cross-covariance of the centred points, about the references' centroid (the pivot)
+/// onto the positions' (the shift). One order of sums, so the same bits for the same
+/// nodes. Nothing when a sum is not finite (a NaN or an infinite node) or the eigenvector
+/// is not (a degenerate sample).
 template <typename Sample>
 std::optional<Rigid> fit_rigid(const double* x, const double* r, const Sample& sample) {
   double cx[3] = {}, cr[3] = {};
