@@ -29,16 +29,14 @@ double certified_motion_radius(const Positions& positions, const Tet& tet, doubl
 /// boxes (CollisionBody::set_positions): when `bounded`, the state is clean and every node
 /// i lies within sqrt(max(radius2[i], 0)) of reference.col(i) + shift, or, when `rotated`,
 /// of rotation * (reference.col(i) - pivot) + shift (the test check() makes, up to its
-/// rounding),
-/// with radius2 as it was before this check changed it: the span holds the radii after it,
-/// which differ only at the nodes in `changed` (new radii around the nodes that moved, for
-/// the next state); the nodes in `moved` got new references, their positions less the
-/// shift (and turned back: rotation^T * (x - shift) + pivot). `version_before` and
-/// `version_after` number
-/// the reference and radii before and after this check (they differ exactly when `moved` and
-/// `changed` say what changed, or when `rebuilt`: every node's reference and radius is
-/// new, the reference is the state itself and the shift 0). The spans and the pointer are
-/// valid until the next check().
+/// rounding), with radius2 as it was before this check changed it: the span holds the
+/// radii after it, which differ only at the nodes in `changed` (new radii around the nodes
+/// that moved, for the next state); the nodes in `moved` got new references, their
+/// positions less the shift (and turned back: rotation^T * (x - shift) + pivot).
+/// `version_before` and `version_after` number the reference and radii before and after
+/// this check (they differ exactly when `moved` and `changed` say what changed, or when
+/// `rebuilt`: every node's reference and radius is new, the reference is the state itself
+/// and the shift 0). The spans and the pointer are valid until the next check().
 struct MotionBound {
   bool bounded = false;
   bool rebuilt = false;
@@ -68,17 +66,17 @@ struct MotionBound {
 /// rigid motion that fits the same nodes best in least squares (a turn and a shift; Horn's
 /// unit quaternion) is tried in its place, and kept while the object goes on turning: a
 /// rotation changes no shape either (docs/DETECTION.md, "Rigid motions in the shape
-/// check"). A still or rigidly moving
-/// object costs one pass over its positions, its reference and its radii a frame (about
-/// 2.5x what reading the positions alone costs: it reads 56 bytes a node, the positions
+/// check"). A still or rigidly moving object costs one pass over its positions, its
+/// reference and its radii a frame (about 2.5x what reading the positions alone costs
+/// when it only shifts, 4.5x when it turns: it reads 56 bytes a node, the positions
 /// 24; the reference is kept a second time for it, by blocks of four nodes coordinate by
 /// coordinate); the tets near a contact cost what they cost before plus their new radii.
 ///
 /// What a check proved of its state's nodes (bound()) lets the detection keep the group
 /// boxes of its cull without reading the nodes again (CollisionBody::set_positions).
 ///
-/// When more than a quarter of the nodes moved under both motions (a large deformation;
-/// on a large object a quarter of the sampled nodes already tells) every tet is checked as by
+/// When more than a quarter of the nodes moved under both motions (a large deformation; on
+/// a large object a quarter of the sampled nodes already tells) every tet is checked as by
 /// validate_positions(), and the reference is rebuilt on the 1st, 2nd, 4th, 8th, ... such
 /// state in a row (the radii cost about a full check, so an object that keeps moving pays
 /// for them less and less often).
