@@ -403,8 +403,11 @@ TEST(Pipeline, ObjectsAtRestGiveWhatFreshStatesGive) {
 // lift a corner of it 15 cm under the tool (a hundredth of its nodes: the rest stay within
 // their radii, so the check's bound holds with new references for the corner) and walk a
 // bulge along it, and a frame that bends its whole end (every tet checked), every frame's
-// forces are those of a new pipeline given the same positions.
-TEST(Pipeline, ADeformingObjectGivesWhatAFreshPipelineGives) {
+// forces are those of a new pipeline given the same positions. With `turn` the whole
+// scene also turns by `turn` rad a frame about a tilted axis through the slab's middle:
+// the check compares the slab after its fitted turn, and the bound's turned group boxes
+// must give the same forces.
+void deforming_slab_frames(double turn) {
   // 24 detection groups: the ball meets few of them, so the group boxes are used.
   const TetMesh slab = test::structured_box(32, 32, 4, {0, 0, 0}, {1.0, 1.0, 0.25});
   const TetMesh ball0 = test::ball_mesh(3, 0.05);
@@ -419,6 +422,13 @@ TEST(Pipeline, ADeformingObjectGivesWhatAFreshPipelineGives) {
     SCOPED_TRACE(frame);
     const bool lifted = frame % 3 == 1;
     const bool bent = frame == 9;
+    const Eigen::Vector3d middle(0.5, 0.5, 0.125);
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(turn * frame, Eigen::Vector3d(0.3, -0.2, 1.0).normalized())
+            .toRotationMatrix();
+    const auto place = [&](auto&& positions) {
+      positions = (rotation * (positions.colwise() - middle)).colwise() + middle;
+    };
     TetMesh state = slab;
     for (Eigen::Index i = 0; i < state.positions.cols(); ++i) {
       auto x = state.positions.col(i);
@@ -434,6 +444,10 @@ TEST(Pipeline, ADeformingObjectGivesWhatAFreshPipelineGives) {
                                : bent ? Eigen::Vector3d(0.93, 0.5, 0.25 + 6.0 * 0.13 * 0.13)
                                       : Eigen::Vector3d(0.3, 0.1 + 0.07 * frame, 0.27);
     ball.positions.colwise() += at + Eigen::Vector3d(0.0, 0.0, 0.05 - 0.01);
+    if (turn != 0.0) {
+      place(state.positions);
+      place(ball.positions);
+    }
     const std::vector<FrameObjectInput> states = {state_of("slab", state), state_of("ball", ball)};
     const FrameOutput got = kept.run_frame(frame, states);
     Pipeline fresh;
@@ -445,6 +459,14 @@ TEST(Pipeline, ADeformingObjectGivesWhatAFreshPipelineGives) {
     expect_same_forces(got, want);
   }
   EXPECT_EQ(contact, 12);
+}
+
+TEST(Pipeline, ADeformingObjectGivesWhatAFreshPipelineGives) {
+  deforming_slab_frames(0.0);
+}
+
+TEST(Pipeline, ATurningDeformingObjectGivesWhatAFreshPipelineGives) {
+  deforming_slab_frames(0.03);
 }
 
 // run_frame_taking swaps the states' matrices in rather than copying them: over frames
