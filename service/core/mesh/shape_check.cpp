@@ -407,14 +407,18 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   const std::size_t run = sampled ? kSampleRun : 1, period = sampled ? kSamplePeriod : 1;
   const double* x = positions.data();
   const double* r = reference_.data();
+  const auto visit_sample = [&](const auto& visit) {
+    for (std::size_t b = 0; b < n; b += period)
+      for (std::size_t i = b; i < std::min(b + run, n); ++i) visit(i);
+  };
   double sx = 0.0, sy = 0.0, sz = 0.0;
   std::size_t samples = 0;
-  for (std::size_t b = 0; b < n; b += period)
-    for (std::size_t i = b; i < std::min(b + run, n); ++i, ++samples) {
-      sx += x[3 * i] - r[3 * i];
-      sy += x[3 * i + 1] - r[3 * i + 1];
-      sz += x[3 * i + 2] - r[3 * i + 2];
-    }
+  visit_sample([&](std::size_t i) {
+    sx += x[3 * i] - r[3 * i];
+    sy += x[3 * i + 1] - r[3 * i + 1];
+    sz += x[3 * i + 2] - r[3 * i + 2];
+    ++samples;
+  });
   const double count = static_cast<double>(std::max<std::size_t>(samples, 1));
   const double shift[3] = {sx / count, sy / count, sz / count};
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
@@ -422,27 +426,29 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
   Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}};
   bool turned = false;
-  const auto visit_sample = [&](const auto& visit) {
-    for (std::size_t b = 0; b < n; b += period)
-      for (std::size_t i = b; i < std::min(b + run, n); ++i) visit(i);
-  };
   const auto fit = [&] {
     auto m = fit_rigid(x, r, visit_sample);
     if (m) {
       // Fitted again to the nodes the first fit leaves within their radii: a few nodes
       // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
-      // beyond their radii too.
-      // (None beyond, as when the object only turned: the same nodes, the same fit.)
-      const Rigid first = *m;
-      const auto within = [&](const auto& visit) {
+      // beyond their radii too. (None beyond, as when the object only turned: the same
+      // nodes, the same fit.)
+      outside_.clear();
+      visit_sample([&](std::size_t i) {
+        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) <= radius2_[i]))
+          outside_.push_back(i);
+      });
+      const auto visit_within = [&](const auto& visit) {  // the sample less outside_
+        std::size_t next = 0;
         visit_sample([&](std::size_t i) {
-          if (rigid_motion2(x + 3 * i, r + 3 * i, first.shift, first.turn) <= radius2_[i]) visit(i);
+          if (next < outside_.size() && outside_[next] == i)
+            ++next;
+          else
+            visit(i);
         });
       };
-      std::size_t inside = 0;
-      within([&](std::size_t) { ++inside; });
-      if (inside < samples)
-        if (const auto second = fit_rigid(x, r, within)) m = second;
+      if (!outside_.empty())
+        if (const auto second = fit_rigid(x, r, visit_within)) m = second;
     }
     if (m) motion = *m;
     turned = m.has_value();

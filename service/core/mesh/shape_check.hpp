@@ -141,6 +141,7 @@ class ShapeCheck {
   std::vector<double> radius2_;  ///< per node: squared radius, -1: always check
   std::vector<std::uint64_t> place_bits_, node_bits_;  ///< bitmaps, all 0 between calls
   std::vector<Index> moved_, places_, nodes_;
+  std::vector<std::size_t> outside_;  ///< scratch of check(): sampled nodes beyond the first fit
   detail::ChunkBuffers<Index> moved_parts_;  ///< per chunk of the motion pass: moved nodes
   std::vector<PointBox> pass_boxes_;         ///< per chunk of the motion pass: its box
   std::vector<Tet> tets_;
