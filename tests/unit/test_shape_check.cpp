@@ -8,6 +8,7 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -250,6 +251,49 @@ TEST(ShapeCheck, TheSameReportsAsTheFullCheckForEveryKindOfMotion) {
   f.both(sheared);
   EXPECT_TRUE(f.check.last().full);
   EXPECT_EQ(f.check.last().checked_tets, m);
+}
+
+// A node in no tet parked far away (1e39 m) drags the mean displacement and the fitted
+// centroid there: the motion test then takes differences of numbers that size, whose
+// rounding (about 1e22 m) hid a motion along that way, one that inverts the tet too. The
+// test leaves room for its rounding now, so such a node cannot hide a motion, and the fit
+// leaves it out. (Found by the fuzz target `mesh`: fuzz/regressions/mesh/far_orphan_*.)
+TEST(ShapeCheck, ANodeFarAwayHidesNoMotionInItsRounding) {
+  TetMesh mesh;
+  mesh.positions.resize(3, 5);
+  mesh.positions << 0, 1, 0, 0, 0,  //
+      0, 0, 1, 0, -1e39,            //
+      0, 0, 0, 1, 0;
+  mesh.node_ids = {1, 2, 3, 4, 5};
+  mesh.tets = {Tet{0, 1, 2, 3}};  // node 4 is in no tet
+  Fixture f(std::move(mesh));
+  const Positions rest = f.mesh.positions;
+  ASSERT_TRUE(f.both(rest).clean());
+  for (const double y : {0.5, -0.5, -1.0, 0.3}) {  // node 2 on the way through
+    SCOPED_TRACE(y);
+    Positions x = rest;
+    x(1, 2) = y;
+    f.both(x);
+  }
+  // Everything carried along too.
+  Positions through = rest;
+  through(1, 2) = -1.0;
+  through.colwise() += Eigen::Vector3d(0.01, 0.02, -0.03);
+  EXPECT_EQ(f.both(through).inverted.count, 1u);
+  // The last clean state (node 2 at y = 0.3) turned while the parked node stays: the fit
+  // leaves out nodes in no tet, so the tet is compared after its turn, and no tet is
+  // checked.
+  const Eigen::Matrix3d rot =
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
+  Positions turned = rest;
+  turned(1, 2) = 0.3;
+  turned.leftCols(4) = (rot * turned.leftCols(4)).eval();
+  ASSERT_TRUE(f.both(turned).clean());
+  EXPECT_TRUE(f.check.last().rotated);
+  EXPECT_FALSE(f.check.last().full);
+  EXPECT_EQ(f.check.last().checked_tets, 0u);
+  turned(1, 2) -= 2.0;  // and node 2 pushed through while turning
+  EXPECT_EQ(f.both(turned).inverted.count, 1u);
 }
 
 // A large object (sampled: over 8,192 nodes) turning a little every frame, as a tool or an

@@ -79,8 +79,8 @@ std::size_t pass_chunk(std::size_t n) {
 /// The same after a turn: the squared distance of x from R (r - p) + shift, with turn = R by
 /// rows, then the pivot p. Computed as (x - shift) - R (r - p): both differences are of
 /// nearby numbers, so the rounding is of the order of the object's size, not of its
-/// distance from the origin. The one expression of the test after a rigid motion
-/// (ShapeCheck::check, detail::motion_pass).
+/// distance from the origin (rounding_slack() leaves room for it). The one expression of the test
+/// after a rigid motion (ShapeCheck::check, detail::motion_pass).
 [[gnu::always_inline]] inline double rigid_motion2(const double* x, const double* r,
                                                    const double* shift, const double* turn) {
   const double qx = r[0] - turn[9], qy = r[1] - turn[10], qz = r[2] - turn[11];
@@ -91,11 +91,37 @@ std::size_t pass_chunk(std::size_t n) {
 }
 
 /// A rigid motion x = R (r - p) + shift: turn holds R by rows (a proper rotation up to
-/// rounding), then the pivot p.
+/// rounding), then the pivot p. defect: ||R^T R - I|| (Frobenius, as computed).
 struct Rigid {
   double turn[12];
   double shift[3];
+  double defect;
 };
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+/// The squared radius of a node in no tet: the largest finite number, which a node in a
+/// tet never has (its radius is below its first edge, under 6e102 when it has one, so
+/// r^2 < 4e205).
+constexpr double kNoTetRadius2 = std::numeric_limits<double>::max();
+
+/// The room a computed squared distance d^2 must leave below a squared radius r^2 for the
+/// exact distance to be within r, when the computed d can be off by `error` and every
+/// radius is at most `rcap`: (d + error)^2 <= r^2 follows from d^2 + error (2 rcap + error)
+/// <= r^2 when d <= rcap, and d > rcap is beyond anyway.
+///
+/// The certificate (certified_motion_radius()) is about the exact distance, and the test
+/// takes differences of numbers that may be large: x - r - shift rounds at about
+/// eps |shift|, (x - shift) - R (r - p) at about eps |r - p|, which a node in no tet parked
+/// far away makes huge by dragging the pivot there (the fuzz target `mesh` found states
+/// whose moved node the rounding hid). ShapeCheck::check() passes twice the worst case:
+///   after a shift:  error = eps |shift| + 4 eps rcap
+///   after a turn:   error = (24 eps + 2 defect) D + 4 eps rcap
+/// D bounding the distance from the pivot of every reference of a node in a tet
+/// (docs/DETECTION.md, "Rounding of the motion test").
+double rounding_slack(double error, double rcap) {
+  return error * (2.0 * rcap + error);
+}
 
 /// The rigid motion that maps the references r of the nodes sample(visit) visits onto their
 /// positions x best in least squares: Horn's closed form (J. Opt. Soc. Am. A 4(4), 1987),
@@ -140,6 +166,8 @@ std::optional<Rigid> fit_rigid(const double* x, const double* r, const Sample& s
   if (!(turn.norm() > 0.5)) return std::nullopt;  // not finite, or not a unit vector
   const Eigen::Matrix3d rot = turn.normalized().toRotationMatrix();
   Rigid m;  // about the references' centroid, onto the positions'
+  m.defect = (rot.transpose() * rot - Eigen::Matrix3d::Identity()).norm();
+  if (!(m.defect <= 1e-9)) return std::nullopt;  // (a unit quaternion gives a few eps)
   for (int j = 0; j < 3; ++j) {
     for (int k = 0; k < 3; ++k) m.turn[3 * j + k] = rot(j, k);
     m.turn[9 + j] = cr[j];
@@ -263,13 +291,13 @@ namespace detail {
 
 /// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
-                 const double* turn, std::size_t begin, std::size_t end, std::vector<Index>& moved,
-                 PointBox& box) {
+                 const double* turn, double slack, std::size_t begin, std::size_t end,
+                 std::vector<Index>& moved, PointBox& box) {
 #if TC_HAS_AVX2_REGION
   if (use_avx2_kernels())
-    return avx2::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
+    return avx2::motion_pass(x, blocks, rad2, shift, turn, slack, begin, end, moved, box);
 #endif
-  baseline::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, turn, slack, begin, end, moved, box);
 }
 
 }  // namespace detail
@@ -328,7 +356,7 @@ ShapeCheck::ShapeCheck(const TetCheckOrder& order, const Csr& node_tets, Index n
 
 double ShapeCheck::node_radius2(Index node) const {
   const auto tets = node_tets_.row(node);
-  if (tets.empty()) return std::numeric_limits<double>::max();  // only NaN moves it
+  if (tets.empty()) return kNoTetRadius2;  // only NaN moves it
   double r = std::numeric_limits<double>::infinity();
   for (const Index t : tets) r = std::min(r, radius_[static_cast<std::size_t>(position_of_[t])]);
   return r < 0.0 ? -1.0 : r * r;
@@ -338,6 +366,24 @@ void ShapeCheck::set_block_node(Index node) {
   const auto i = static_cast<std::size_t>(node);
   for (std::size_t c = 0; c < 3; ++c)
     blocks_[block_slot(i, c)] = reference_(static_cast<Index>(c), node);
+}
+
+void ShapeCheck::cover(Index node) {
+  if (node_tets_.row(node).empty()) return;  // an orphan: its motion changes no tet
+  for (int c = 0; c < 3; ++c) {
+    ref_lo_[c] = std::min(ref_lo_[c], reference_(c, node));
+    ref_hi_[c] = std::max(ref_hi_[c], reference_(c, node));
+  }
+}
+
+double ShapeCheck::reach(const double* pivot) const {
+  if (!(ref_lo_[0] <= ref_hi_[0])) return 0.0;  // no node in a tet
+  double sum = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double far = std::max(ref_hi_[c] - pivot[c], pivot[c] - ref_lo_[c]);
+    sum += far * far;
+  }
+  return std::sqrt(sum);
 }
 
 void ShapeCheck::rebuild(const Positions& positions) {
@@ -354,6 +400,16 @@ void ShapeCheck::rebuild(const Positions& positions) {
                        for (std::size_t i = begin; i < end; ++i)
                          radius2_[i] = node_radius2(static_cast<Index>(i));
                      });
+  rcap2_ = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    ref_lo_[c] = std::numeric_limits<double>::infinity();
+    ref_hi_[c] = -ref_lo_[c];
+  }
+  for (Index i = 0; i < num_nodes_; ++i) {
+    cover(i);
+    if (!node_tets_.row(i).empty())
+      rcap2_ = std::max(rcap2_, radius2_[static_cast<std::size_t>(i)]);
+  }
   last_.rebuilt = true;
   last_.bounded = true;  // every node at its reference, no shift
   last_.shift.setZero();
@@ -424,23 +480,42 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
   // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
-  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}};
+  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}, 0.0};
   bool turned = false;
+  // The room for rounding the test leaves (rounding_slack()), for the shift and then for
+  // the motion fitted.
+  const double rcap = std::sqrt(rcap2_);
+  double slack = rounding_slack(
+      kEps * std::sqrt(shift[0] * shift[0] + shift[1] * shift[1] + shift[2] * shift[2]) +
+          4.0 * kEps * rcap,
+      rcap);
+  const auto turned_slack = [&](const Rigid& m) {
+    return rounding_slack((24.0 * kEps + 2.0 * m.defect) * reach(m.turn + 9) + 4.0 * kEps * rcap,
+                          rcap);
+  };
+  // The fit takes the sampled nodes that are in a tet: a node in none does not count, however
+  // it moves or wherever it is parked (far away, it would drag the pivot there).
+  const auto visit_fit = [&](const auto& visit) {
+    visit_sample([&](std::size_t i) {
+      if (radius2_[i] != kNoTetRadius2) visit(i);
+    });
+  };
   const auto fit = [&] {
-    auto m = fit_rigid(x, r, visit_sample);
+    auto m = fit_rigid(x, r, visit_fit);
     if (m) {
+      const double room = turned_slack(*m);
       // Fitted again to the nodes the first fit leaves within their radii: a few nodes
       // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
       // beyond their radii too. (None beyond, as when the object only turned: the same
       // nodes, the same fit.)
       outside_.clear();
-      visit_sample([&](std::size_t i) {
-        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) <= radius2_[i]))
+      visit_fit([&](std::size_t i) {
+        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) + room <= radius2_[i]))
           outside_.push_back(i);
       });
-      const auto visit_within = [&](const auto& visit) {  // the sample less outside_
+      const auto visit_within = [&](const auto& visit) {  // those less outside_
         std::size_t next = 0;
-        visit_sample([&](std::size_t i) {
+        visit_fit([&](std::size_t i) {
           if (next < outside_.size() && outside_[next] == i)
             ++next;
           else
@@ -450,14 +525,17 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
       if (!outside_.empty())
         if (const auto second = fit_rigid(x, r, visit_within)) m = second;
     }
-    if (m) motion = *m;
+    if (m) {
+      motion = *m;
+      slack = turned_slack(*m);
+    }
     turned = m.has_value();
     return turned;
   };
   const auto beyond = [&](std::size_t i) {  // NaN: beyond
     const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.turn)
                              : motion2(x + 3 * i, r + 3 * i, motion.shift);
-    return !(d2 <= radius2_[i]);
+    return !(d2 + slack <= radius2_[i]);
   };
   const auto busy = [&] {
     ++busy_streak_;
@@ -487,7 +565,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     const double* turn = turned ? motion.turn : nullptr;
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, begin, end,
+      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, slack, begin, end,
                           moved_parts_[c], box);
       pass_boxes_[c] = box;
     });
@@ -550,6 +628,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
       reference_(c, i) =
           turned ? (m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2]) + m[9 + c] : u[c];
     set_block_node(i);
+    cover(i);
   }
   compute_radii(
       reference_, order_.tets, quality_, places_.size(),
@@ -566,6 +645,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
                        for (std::size_t j = begin; j < end; ++j)
                          radius2_[static_cast<std::size_t>(nodes_[j])] = node_radius2(nodes_[j]);
                      });
+  for (const Index v : nodes_) rcap2_ = std::max(rcap2_, radius2_[static_cast<std::size_t>(v)]);
   last_.version_after = ++version_;
   return report;
 }

@@ -126,6 +126,11 @@ class ShapeCheck {
   double node_radius2(Index node) const;
   /// Copies reference_'s column `node` into blocks_.
   void set_block_node(Index node);
+  /// Extends ref_lo_, ref_hi_ by reference_'s column `node` when the node is in a tet.
+  void cover(Index node);
+  /// A bound on the distance from `pivot` (3 coordinates) of the reference of every node
+  /// in a tet.
+  [[nodiscard]] double reach(const double* pivot) const;
 
   const TetCheckOrder& order_;
   const Csr& node_tets_;
@@ -139,6 +144,10 @@ class ShapeCheck {
   std::vector<double> blocks_;
   std::vector<double> radius_;   ///< per place in order_: certified radius, < 0: none
   std::vector<double> radius2_;  ///< per node: squared radius, -1: always check
+  /// Since the last rebuild: at least every radius2_ of a node in a tet, and the box of
+  /// those nodes' references (for the rounding of the motion test).
+  double rcap2_ = 0.0;
+  double ref_lo_[3] = {}, ref_hi_[3] = {};
   std::vector<std::uint64_t> place_bits_, node_bits_;  ///< bitmaps, all 0 between calls
   std::vector<Index> moved_, places_, nodes_;
   std::vector<std::size_t> outside_;  ///< scratch of check(): sampled nodes beyond the first fit
