@@ -91,6 +91,23 @@ TEST_P(CertifiedMotionRadius, ARegularTetMayMoveAFewPercentOfItsEdge) {
   EXPECT_NEAR(certified_motion_radius(far, t, 0.01), 1e-3 * r, 1e-9 * r);
 }
 
+// Only for tets whose quality is computed without overflow or underflow: edges between
+// about 1e-67 m and 1e66 m. At 1e-105 m, l2^1.5 is a subnormal number in tet_quality(),
+// at 1e90 m the squared gradients here are infinite; the full check decides such tets.
+TEST_P(CertifiedMotionRadius, OnlyForTetsOfAMeasurableSize) {
+  const TetMesh m = test::regular_tet();
+  const Tet t = m.tets[0];
+  const double r = certified_motion_radius(m.positions, t, 0.01);
+  for (const double scale : {1e-60, 1e-30, 1e30, 1e60}) {
+    SCOPED_TRACE(scale);
+    EXPECT_NEAR(certified_motion_radius(scale * m.positions, t, 0.01), scale * r, 1e-9 * scale * r);
+  }
+  for (const double scale : {1e-105, 1e-80, 1e70, 1e90, 1e200}) {
+    SCOPED_TRACE(scale);
+    EXPECT_EQ(certified_motion_radius(scale * m.positions, t, 0.01), -1.0);
+  }
+}
+
 TEST_P(CertifiedMotionRadius, NoMotionWithinItLeavesAGoodTet) {
   std::mt19937_64 rng(13);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

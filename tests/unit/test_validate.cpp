@@ -227,6 +227,55 @@ TEST_P(BothKernels, WithoutTheSmallestQualityTheDefectsAreTheSame) {
   }
 }
 
+// The fast test decides only where tet_quality() computes without overflow or underflow;
+// elsewhere the report is tet_quality()'s. Before, a node at 1e231 m (squared lengths
+// infinite: quality 0, degenerate) and a sliver 1e-105 m across (6V and l2^3 below the
+// smallest number: 0 >= 0) passed the fast test in a block of eight, and were reported
+// only when they fell in the remainder (found by the fuzz target `mesh`).
+TEST_P(BothKernels, TetsOfExtremeSizesGetTheReportOfTheirQuality) {
+  ValidationOptions exact_opt;
+  exact_opt.max_listed = 100000;
+  ValidationOptions fast_opt = exact_opt;
+  fast_opt.compute_min_quality = false;
+  const Eigen::Vector3d regular[4] = {{0, 0, 0}, {1, 0, 0}, {0.5, 0.866, 0}, {0.5, 0.289, 0.816}};
+  const Eigen::Vector3d sliver[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 0.004}};
+  const Eigen::Vector3d far[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 1e231}};
+  struct Case {
+    const Eigen::Vector3d* shape;
+    double scale;
+  };
+  const Case cases[] = {{regular, 1.0},    {far, 1.0},       {sliver, 1e-105},  {regular, 1e-105},
+                        {regular, 1e-150}, {sliver, 1e-150}, {regular, 1e103},  {sliver, 1e103},
+                        {regular, 1e150},  {sliver, 1.0},    {regular, 1e-300}, {far, 1e-200}};
+  TetMesh m;
+  std::vector<Eigen::Vector3d> nodes;
+  for (int copy = 0; copy < 3; ++copy)  // each case in lanes of every kind, and alone
+    for (const Case& c : cases) {
+      const auto first = static_cast<Index>(nodes.size());
+      for (int k = 0; k < 4; ++k) nodes.push_back(c.scale * c.shape[k]);
+      m.tets.push_back({first, first + 1, first + 2, first + 3});
+    }
+  m.positions.resize(3, static_cast<Index>(nodes.size()));
+  for (std::size_t i = 0; i < nodes.size(); ++i) m.positions.col(static_cast<Index>(i)) = nodes[i];
+  ASSERT_GT(m.tets.size() % 8, 0u);
+  const ValidationReport exact = validate_positions(m.positions, m.tets, exact_opt);
+  EXPECT_GT(exact.degenerate.count, 0u);  // the far node's tets at least
+  EXPECT_GT(exact.sliver.count, 0u);
+  for (std::size_t skip = 0; skip < 8; ++skip) {  // every tet in every lane
+    SCOPED_TRACE(skip);
+    std::vector<Tet> tets(m.tets.begin() + static_cast<std::ptrdiff_t>(skip), m.tets.end());
+    std::vector<Tet> lead(m.tets.begin(), m.tets.begin() + static_cast<std::ptrdiff_t>(skip));
+    tets.insert(tets.end(), lead.begin(), lead.end());
+    const ValidationReport want = validate_positions(m.positions, tets, exact_opt);
+    const ValidationReport fast = validate_positions(m.positions, tets, fast_opt);
+    EXPECT_EQ(fast.degenerate.first, want.degenerate.first);
+    EXPECT_EQ(fast.inverted.first, want.inverted.first);
+    EXPECT_EQ(fast.sliver.first, want.sliver.first);
+    EXPECT_EQ(fast.degenerate.count, exact.degenerate.count);
+    EXPECT_EQ(fast.sliver.count, exact.sliver.count);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Validate, BothKernels, ::testing::Bool(), test::kernel_copy_name);
 
 // The per-frame check visits the tets in a spatial order (make_tet_check_order); the

@@ -101,8 +101,7 @@ struct Rigid {
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 /// The squared radius of a node in no tet: the largest finite number, which a node in a
-/// tet never has (its radius is below its first edge, under 6e102 when it has one, so
-/// r^2 < 4e205).
+/// tet never has (its radius is below its first edge, under 1e66 when it has one).
 constexpr double kNoTetRadius2 = std::numeric_limits<double>::max();
 
 /// The room a computed squared distance d^2 must leave below a squared radius r^2 for the
@@ -247,9 +246,11 @@ namespace detail {
       const double r = h < d ? h : d;
       best = best < r ? r : best;
     }
-    // Not good enough as it is (or not finite): no radius.
-    const bool good = v6 > 0.0 && grad > 0.0 && c0 < std::numeric_limits<double>::infinity() &&
-                      root432 * v6 >= s * c0;
+    // Not good enough as it is, or of a size whose quality (here, or in tet_quality()) is
+    // not computed without overflow or underflow: no radius. l2^1.5 in (1e-200, 1e200) is
+    // edges of about 1e-67 m to 1e66 m (the squared gradients overflow at about 1e77 m);
+    // the full check decides other tets as tet_quality() computes them.
+    const bool good = v6 > 0.0 && grad > 0.0 && c0 > 1e-200 && c0 < 1e200 && root432 * v6 >= s * c0;
     out[l] = good ? best : -1.0;
   }
 }

@@ -48,6 +48,7 @@ namespace {
 /// loop was latency-bound (~70 cycles).
 [[gnu::always_inline]] inline unsigned not_slivers_lanes(const double* x, const Tet* tets,
                                                          double s2_margin) {
+  constexpr double kSmallest = 1e-290, kInfinity = std::numeric_limits<double>::infinity();
   double a[3][kLanes], b[3][kLanes], c[3][kLanes], l2[kLanes] = {};
   for (int l = 0; l < kLanes; ++l) {
     const Tet& t = tets[l];
@@ -76,9 +77,16 @@ namespace {
     lhs[l] = 432.0 * (v6[l] * v6[l]);
     rhs[l] = s2_margin * (l2[l] * l2[l] * l2[l]);
   }
+  // Only where tet_quality() computes without overflow or underflow: s2 l2^3 finite (so
+  // are l2 and 6V) and above 1e-290 (so 6V^2 and l2 are normal numbers, and no product of
+  // differences loses more than the rounding above). Beyond, tet_quality() decides: a node
+  // at 1e231 m made l2 infinite there (quality 0: degenerate) and l2^3 and 432 (6V)^2 both
+  // infinite here (found by the fuzz target `mesh`).
   unsigned good = 0;
   for (int l = 0; l < kLanes; ++l)
-    good |= static_cast<unsigned>(v6[l] > 0.0 && lhs[l] >= rhs[l]) << l;
+    good |= static_cast<unsigned>(v6[l] > 0.0 && lhs[l] >= rhs[l] && rhs[l] >= kSmallest &&
+                                  rhs[l] < kInfinity)
+            << l;
   return good;
 }
 
