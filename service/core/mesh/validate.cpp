@@ -84,8 +84,8 @@ namespace {
   // infinite here (found by the fuzz target `mesh`).
   unsigned good = 0;
   for (int l = 0; l < kLanes; ++l)
-    good |= static_cast<unsigned>(v6[l] > 0.0 && lhs[l] >= rhs[l] && rhs[l] >= kSmallest &&
-                                  rhs[l] < kInfinity)
+    good |= static_cast<unsigned>((v6[l] > 0.0) & (lhs[l] >= rhs[l]) & (rhs[l] >= kSmallest) &
+                                  (rhs[l] < kInfinity))
             << l;
   return good;
 }
