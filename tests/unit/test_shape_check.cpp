@@ -313,6 +313,28 @@ TEST(ShapeCheck, ANodeFarAwayHidesNoMotionInItsRounding) {
   EXPECT_EQ(f.both(turned).inverted.count, 1u);
 }
 
+// A tet carried 1e17 m away: every coordinate is then a multiple of 16 m, and its nodes
+// fall on one point (degenerate). Each x - q rounds to the mean shift exactly, so a test
+// after the shift found no motion; a shift that far is beyond the room kept for rounding,
+// and the fit (about the centroids) finds the motion.
+TEST(ShapeCheck, AShiftFarBeyondTheObjectsSizeHidesNoMotionInItsRounding) {
+  TetMesh mesh;
+  mesh.positions.resize(3, 4);
+  mesh.positions << 0, 1, 0, 0,  //
+      0, 0, 1, 0,                //
+      0, 0, 0, 1;
+  mesh.node_ids = {1, 2, 3, 4};
+  mesh.tets = {Tet{0, 1, 2, 3}};
+  Fixture f(std::move(mesh));
+  const Positions rest = f.mesh.positions;
+  ASSERT_TRUE(f.both(rest).clean());
+  for (const double far : {1e3, 1e17, 1e30}) {
+    SCOPED_TRACE(far);
+    const Positions x = rest.array() + far;
+    f.both(x);
+  }
+}
+
 // A large object (sampled: over 8,192 nodes) turning a little every frame, as a tool or an
 // organ carried along does, with a dent pressed into it on the way: after the first turn,
 // no state is a full check, only the dent's tets are checked, and the reports are the full

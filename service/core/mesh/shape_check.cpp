@@ -79,8 +79,8 @@ std::size_t pass_chunk(std::size_t n) {
 /// The same after a turn: the squared distance of x from R (r - p) + shift, with turn = R by
 /// rows, then the pivot p. Computed as (x - shift) - R (r - p): both differences are of
 /// nearby numbers, so the rounding is of the order of the object's size, not of its
-/// distance from the origin (rounding_slack() leaves room for it). The one expression of the test
-/// after a rigid motion (ShapeCheck::check, detail::motion_pass).
+/// distance from the origin (ShapeCheck::budget_ leaves room for it). The one expression of the
+/// test after a rigid motion (ShapeCheck::check, detail::motion_pass).
 [[gnu::always_inline]] inline double rigid_motion2(const double* x, const double* r,
                                                    const double* shift, const double* turn) {
   const double qx = r[0] - turn[9], qy = r[1] - turn[10], qz = r[2] - turn[11];
@@ -111,15 +111,31 @@ constexpr double kNoTetRadius2 = std::numeric_limits<double>::max();
 ///
 /// The certificate (certified_motion_radius()) is about the exact distance, and the test
 /// takes differences of numbers that may be large: x - r - shift rounds at about
-/// eps |shift|, (x - shift) - R (r - p) at about eps |r - p|, which a node in no tet parked
-/// far away makes huge by dragging the pivot there (the fuzz target `mesh` found states
-/// whose moved node the rounding hid). ShapeCheck::check() passes twice the worst case:
+/// eps |shift|, (x - shift) - R (r - p) at about eps |r - p| (up to D, the reach of the
+/// references from the pivot). A node in no tet parked far away dragged the pivot there,
+/// and the rounding hid moved nodes (the fuzz target `mesh` found it). Twice the worst
+/// case (docs/DETECTION.md, "Rounding of the motion test"):
 ///   after a shift:  error = eps |shift| + 4 eps rcap
 ///   after a turn:   error = (24 eps + 2 defect) D + 4 eps rcap
-/// D bounding the distance from the pivot of every reference of a node in a tet
-/// (docs/DETECTION.md, "Rounding of the motion test").
+/// The squared radii are kept less the room for kBudgetReach eps of the reference's extent
+/// (ShapeCheck::budget_), which covers a shift by up to 128 extents and any turn of a
+/// defect up to 52 eps (a unit quaternion's is at most about 14 eps); a motion whose room
+/// would be more is not used.
 double rounding_slack(double error, double rcap) {
   return error * (2.0 * rcap + error);
+}
+
+/// The rounding the kept room covers, in eps times the reference's extent.
+constexpr double kBudgetReach = 128.0;
+
+/// The rounding of the motion test after a shift, and after a turn with the pivot `reach`
+/// from every reference (rounding_slack()).
+double shift_error(const double* shift, double rcap) {
+  return kEps * std::sqrt(shift[0] * shift[0] + shift[1] * shift[1] + shift[2] * shift[2]) +
+         4.0 * kEps * rcap;
+}
+double turn_error(double defect, double reach, double rcap) {
+  return (24.0 * kEps + 2.0 * defect) * reach + 4.0 * kEps * rcap;
 }
 
 /// The rigid motion that maps the references r of the nodes sample(visit) visits onto their
@@ -292,13 +308,13 @@ namespace detail {
 
 /// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
-                 const double* turn, double slack, std::size_t begin, std::size_t end,
-                 std::vector<Index>& moved, PointBox& box) {
+                 const double* turn, std::size_t begin, std::size_t end, std::vector<Index>& moved,
+                 PointBox& box) {
 #if TC_HAS_AVX2_REGION
   if (use_avx2_kernels())
-    return avx2::motion_pass(x, blocks, rad2, shift, turn, slack, begin, end, moved, box);
+    return avx2::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
 #endif
-  baseline::motion_pass(x, blocks, rad2, shift, turn, slack, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
 }
 
 }  // namespace detail
@@ -360,7 +376,8 @@ double ShapeCheck::node_radius2(Index node) const {
   if (tets.empty()) return kNoTetRadius2;  // only NaN moves it
   double r = std::numeric_limits<double>::infinity();
   for (const Index t : tets) r = std::min(r, radius_[static_cast<std::size_t>(position_of_[t])]);
-  return r < 0.0 ? -1.0 : r * r;
+  const double kept = r * r - budget_;  // less the room for rounding
+  return r < 0.0 || !(kept >= 0.0) ? -1.0 : kept;
 }
 
 void ShapeCheck::set_block_node(Index node) {
@@ -395,22 +412,27 @@ void ShapeCheck::rebuild(const Positions& positions) {
   radius_.resize(order_.tets.size());
   compute_radii(
       reference_, order_.tets, quality_, radius_.size(), [](std::size_t k) { return k; }, radius_);
+  // The room for rounding kept off the squared radii (rounding_slack()): for kBudgetReach
+  // eps of the extent of the references of nodes in tets.
+  rcap2_ = 0.0;
+  for (const double t : radius_)
+    if (t > 0.0) rcap2_ = std::max(rcap2_, t * t);  // (-1: no radius)
+  for (int c = 0; c < 3; ++c) {
+    ref_lo_[c] = std::numeric_limits<double>::infinity();
+    ref_hi_[c] = -ref_lo_[c];
+  }
+  for (Index i = 0; i < num_nodes_; ++i) cover(i);
+  double extent2 = 0.0;
+  for (int c = 0; c < 3; ++c)
+    if (ref_lo_[c] <= ref_hi_[c]) extent2 += (ref_hi_[c] - ref_lo_[c]) * (ref_hi_[c] - ref_lo_[c]);
+  const double rcap = std::sqrt(rcap2_);
+  budget_ = rounding_slack(kBudgetReach * kEps * std::sqrt(extent2) + 4.0 * kEps * rcap, rcap);
   radius2_.resize(static_cast<std::size_t>(num_nodes_));
   detail::for_chunks(radius2_.size(), kRadiusChunk,
                      [&](std::size_t begin, std::size_t end, std::size_t) {
                        for (std::size_t i = begin; i < end; ++i)
                          radius2_[i] = node_radius2(static_cast<Index>(i));
                      });
-  rcap2_ = 0.0;
-  for (int c = 0; c < 3; ++c) {
-    ref_lo_[c] = std::numeric_limits<double>::infinity();
-    ref_hi_[c] = -ref_lo_[c];
-  }
-  for (Index i = 0; i < num_nodes_; ++i) {
-    cover(i);
-    if (!node_tets_.row(i).empty())
-      rcap2_ = std::max(rcap2_, radius2_[static_cast<std::size_t>(i)]);
-  }
   last_.rebuilt = true;
   last_.bounded = true;  // every node at its reference, no shift
   last_.shift.setZero();
@@ -483,17 +505,11 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
   Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}, 0.0};
   bool turned = false;
-  // The room for rounding the test leaves (rounding_slack()), for the shift and then for
-  // the motion fitted.
+  // The motion is used only if its rounding fits the room kept off the radii (budget_,
+  // rounding_slack()); a shift too far from the reference is fitted as a rigid motion
+  // (about the centroids, whose rounding does not grow with the shift).
   const double rcap = std::sqrt(rcap2_);
-  double slack = rounding_slack(
-      kEps * std::sqrt(shift[0] * shift[0] + shift[1] * shift[1] + shift[2] * shift[2]) +
-          4.0 * kEps * rcap,
-      rcap);
-  const auto turned_slack = [&](const Rigid& m) {
-    return rounding_slack((24.0 * kEps + 2.0 * m.defect) * reach(m.turn + 9) + 4.0 * kEps * rcap,
-                          rcap);
-  };
+  const bool shift_fits = rounding_slack(shift_error(shift, rcap), rcap) <= budget_;
   // The fit takes the sampled nodes that are in a tet: a node in none does not count, however
   // it moves or wherever it is parked (far away, it would drag the pivot there).
   const auto visit_fit = [&](const auto& visit) {
@@ -503,15 +519,18 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   };
   const auto fit = [&] {
     auto m = fit_rigid(x, r, visit_fit);
+    const auto fits = [&](const Rigid& f) {
+      return rounding_slack(turn_error(f.defect, reach(f.turn + 9), rcap), rcap) <= budget_;
+    };
+    if (m && !fits(*m)) m.reset();
     if (m) {
-      const double room = turned_slack(*m);
       // Fitted again to the nodes the first fit leaves within their radii: a few nodes
       // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
       // beyond their radii too. (None beyond, as when the object only turned: the same
       // nodes, the same fit.)
       outside_.clear();
       visit_fit([&](std::size_t i) {
-        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) + room <= radius2_[i]))
+        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) <= radius2_[i]))
           outside_.push_back(i);
       });
       const auto visit_within = [&](const auto& visit) {  // those less outside_
@@ -524,19 +543,16 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
         });
       };
       if (!outside_.empty())
-        if (const auto second = fit_rigid(x, r, visit_within)) m = second;
+        if (const auto second = fit_rigid(x, r, visit_within); second && fits(*second)) m = second;
     }
-    if (m) {
-      motion = *m;
-      slack = turned_slack(*m);
-    }
+    if (m) motion = *m;
     turned = m.has_value();
     return turned;
   };
   const auto beyond = [&](std::size_t i) {  // NaN: beyond
     const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.turn)
                              : motion2(x + 3 * i, r + 3 * i, motion.shift);
-    return !(d2 + slack <= radius2_[i]);
+    return !(d2 <= radius2_[i]);
   };
   const auto busy = [&] {
     ++busy_streak_;
@@ -544,7 +560,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   };
   // An object that was turning is compared after a turn straight away (a translation alone
   // would leave most of its nodes beyond their radii).
-  if (turning_ && !fit()) return busy();
+  if ((turning_ || !shift_fits) && !fit()) return busy();
   if (sampled) {  // a rotation shows in the sample: no need to look at every node
     const auto sample_busy = [&] {
       std::size_t moved = 0;
@@ -566,7 +582,7 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     const double* turn = turned ? motion.turn : nullptr;
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
-      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, slack, begin, end,
+      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, begin, end,
                           moved_parts_[c], box);
       pass_boxes_[c] = box;
     });
@@ -646,7 +662,10 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
                        for (std::size_t j = begin; j < end; ++j)
                          radius2_[static_cast<std::size_t>(nodes_[j])] = node_radius2(nodes_[j]);
                      });
-  for (const Index v : nodes_) rcap2_ = std::max(rcap2_, radius2_[static_cast<std::size_t>(v)]);
+  for (const Index k : places_) {
+    const double t = radius_[static_cast<std::size_t>(k)];
+    if (t > 0.0) rcap2_ = std::max(rcap2_, t * t);
+  }
   last_.version_after = ++version_;
   return report;
 }

@@ -143,10 +143,12 @@ class ShapeCheck {
   /// z z), for the motion pass; a last partial block's lanes beyond the nodes unused.
   std::vector<double> blocks_;
   std::vector<double> radius_;   ///< per place in order_: certified radius, < 0: none
-  std::vector<double> radius2_;  ///< per node: squared radius, -1: always check
-  /// Since the last rebuild: at least every radius2_ of a node in a tet, and the box of
-  /// those nodes' references (for the rounding of the motion test).
+  std::vector<double> radius2_;  ///< per node: squared radius less budget_, -1: always check
+  /// Since the last rebuild: at least the square of every radius, and the box of the
+  /// references of nodes in tets (for the rounding of the motion test); the room for
+  /// that rounding kept off radius2_ (fixed at the last rebuild).
   double rcap2_ = 0.0;
+  double budget_ = 0.0;
   double ref_lo_[3] = {}, ref_hi_[3] = {};
   std::vector<std::uint64_t> place_bits_, node_bits_;  ///< bitmaps, all 0 between calls
   std::vector<Index> moved_, places_, nodes_;
