@@ -276,6 +276,25 @@ TEST_P(BothKernels, TetsOfExtremeSizesGetTheReportOfTheirQuality) {
   }
 }
 
+// A tet whose quality is not finite (6V and l2^1.5 both infinite, or both 0, or only the
+// latter 0) had no class at all, so a mesh of such tets was clean: now it is degenerate,
+// and refused.
+TEST(Validate, ATetWhoseQualityIsNotFiniteIsDegenerate) {
+  TetMesh m = test::regular_tet();
+  const Positions unit = m.positions;
+  for (const double scale : {1e160, 1e103, 1e-110, 1e-150}) {
+    SCOPED_TRACE(scale);
+    m.positions = scale * unit;
+    ASSERT_FALSE(std::isfinite(tet_quality(m.positions, m.tets[0])));
+    const ValidationReport report = validate_mesh(m);
+    EXPECT_EQ(report.degenerate.count, 1u);
+    EXPECT_FALSE(report.clean());
+    EXPECT_EQ(validate_positions(m.positions, m.tets, ValidationOptions{}).degenerate.count, 1u);
+  }
+  m.positions = 1e100 * unit;  // large, but computed: still a good tet
+  EXPECT_TRUE(validate_mesh(m).clean());
+}
+
 INSTANTIATE_TEST_SUITE_P(Validate, BothKernels, ::testing::Bool(), test::kernel_copy_name);
 
 // The per-frame check visits the tets in a spatial order (make_tet_check_order); the

@@ -138,7 +138,9 @@ void check_shapes(const Positions& p, std::span<const Tet> tets, const Validatio
                          const double q = tet_quality(p, tets[k]);
                          const Index ti = index.empty() ? static_cast<Index>(k) : index[k];
                          if (q < part.min_quality) part.min_quality = q;
-                         if (std::abs(q) < opt.degenerate_quality) {
+                         // (A quality that is not finite, of a tet too large or too
+                         // small for doubles, is degenerate.)
+                         if (!(std::abs(q) >= opt.degenerate_quality) || !std::isfinite(q)) {
                            add_smallest(part.degenerate, ti, opt.max_listed);
                          } else if (q < 0.0) {
                            add_smallest(part.inverted, ti, opt.max_listed);

@@ -44,7 +44,8 @@ struct ValidationReport {
   DefectList index_out_of_range;  ///< tets with a node index outside [0, n)
   DefectList repeated_node;       ///< tets using one node twice
   DefectList nonfinite_node;      ///< nodes with a NaN or infinite coordinate
-  DefectList degenerate;          ///< tets with |quality| < degenerate_quality
+  DefectList degenerate;          ///< tets with |quality| < degenerate_quality, or not
+                                  ///< finite (edges beyond ~6e102 m or below ~3e-109 m)
   DefectList inverted;            ///< tets with quality <= -degenerate_quality
   DefectList sliver;              ///< tets with quality in [degenerate, sliver)
   /// Over the tets with valid indices and coordinates; NaN when
