@@ -311,6 +311,16 @@ TEST(ShapeCheck, ANodeFarAwayHidesNoMotionInItsRounding) {
   EXPECT_EQ(f.check.last().checked_tets, 0u);
   turned(1, 2) -= 2.0;  // and node 2 pushed through while turning
   EXPECT_EQ(f.both(turned).inverted.count, 1u);
+  // The parked node moved a long way, the tet still: it pulls the mean shift, and the fit,
+  // which leaves it out, finds that nothing else moved.
+  for (const double to : {1e6, 1e30}) {
+    Positions parked_moved = turned;
+    parked_moved(1, 2) += 2.0;
+    parked_moved(0, 4) = to;
+    ASSERT_TRUE(f.both(parked_moved).clean());
+    EXPECT_FALSE(f.check.last().full);
+    EXPECT_EQ(f.check.last().checked_tets, 0u);
+  }
 }
 
 // A tet carried 1e17 m away: every coordinate is then a multiple of 16 m, and its nodes
