@@ -181,8 +181,7 @@ std::optional<Rigid> fit_rigid(const double* x, const double* r, const Sample& s
   if (!(turn.norm() > 0.5)) return std::nullopt;  // not finite, or not a unit vector
   const Eigen::Matrix3d rot = turn.normalized().toRotationMatrix();
   Rigid m;  // about the references' centroid, onto the positions'
-  m.defect = (rot.transpose() * rot - Eigen::Matrix3d::Identity()).norm();
-  if (!(m.defect <= 1e-9)) return std::nullopt;  // (a unit quaternion gives a few eps)
+  m.defect = (rot.transpose() * rot - Eigen::Matrix3d::Identity()).norm();  // (check()'s fits)
   for (int j = 0; j < 3; ++j) {
     for (int k = 0; k < 3; ++k) m.turn[3 * j + k] = rot(j, k);
     m.turn[9 + j] = cr[j];
