@@ -1,8 +1,11 @@
 #include "cli_common.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <numbers>
 
 namespace tc::cli {
 
@@ -23,6 +26,21 @@ double median(std::vector<double> values) {
   const double upper = *mid;
   const double lower = *std::max_element(values.begin(), mid);
   return 0.5 * (lower + upper);
+}
+
+Status turn_about_centre(Positions& x, const std::vector<double>& turn) {
+  if (turn.size() != 4) return Error{ErrorCode::kInvalidArgument, "--turn-b takes AX AY AZ DEG"};
+  if (!std::all_of(turn.begin(), turn.end(), [](double v) { return std::isfinite(v); }))
+    return Error{ErrorCode::kInvalidArgument, "--turn-b: the axis and angle must be finite"};
+  const Eigen::Vector3d axis(turn[0], turn[1], turn[2]);
+  if (!(axis.norm() > 0.0) || !std::isfinite(axis.norm()))
+    return Error{ErrorCode::kInvalidArgument, "--turn-b: the axis must not be zero"};
+  if (x.cols() == 0) return {};
+  const Eigen::Vector3d centre = 0.5 * (x.rowwise().minCoeff() + x.rowwise().maxCoeff());
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(turn[3] * std::numbers::pi / 180.0, axis.normalized()).toRotationMatrix();
+  x = (rotation * (x.colwise() - centre)).colwise() + centre;
+  return {};
 }
 
 void print_json(const nlohmann::json& value) {

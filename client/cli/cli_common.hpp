@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
+#include "core/mesh/tet_mesh.hpp"
 
 namespace tc::cli {
 
@@ -32,6 +33,11 @@ inline double elapsed_ms(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
 }
+
+/// Turns `x` by turn[3] degrees about the axis (turn[0], turn[1], turn[2]) through the centre
+/// of x's box, right-handed (--turn-b AX AY AZ DEG). An error names what is wrong when the
+/// axis is zero or a number is not finite; `x` is then unchanged.
+Status turn_about_centre(Positions& x, const std::vector<double>& turn);
 
 /// Prints a JSON object on stdout (2-space indent, newline).
 void print_json(const nlohmann::json& value);

@@ -1,7 +1,9 @@
-// `tetcollide detect FILE_A FILE_B [--move-b DX DY DZ] [--broad grid|hash|sap|bvh]
+// `tetcollide detect FILE_A FILE_B [--turn-b AX AY AZ DEG] [--move-b DX DY DZ]
+//  [--broad grid|hash|sap|bvh]
 //  [--threads N] [--repeat R] [--pairs OUT.csv] [--json]`
 //
-// Runs the detection stage on two meshes (B optionally translated) R times and reports
+// Runs the detection stage on two meshes (B optionally turned about its box's centre, then
+// translated) R times and reports
 // the median per-frame time (set_positions of both objects + detect; no file I/O).
 #include <tbb/global_control.h>
 
@@ -23,6 +25,7 @@ struct DetectArgs {
   std::string file_a;
   std::string file_b;
   std::vector<double> move_b;
+  std::vector<double> turn_b;
   std::string broad = std::string(broad_phase_name(DetectOptions{}.broad_phase));
   int threads = 0;
   int repeat = 20;
@@ -45,6 +48,9 @@ int run_detect(const DetectArgs& args) {
   if (!mesh_a) return report_error(mesh_a.error());
   auto mesh_b = load(args.file_b);
   if (!mesh_b) return report_error(mesh_b.error());
+  if (!args.turn_b.empty())
+    if (Status st = turn_about_centre(mesh_b->positions, args.turn_b); !st)
+      return report_error(st.error().message, kExitUsage);
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d d(args.move_b[0], args.move_b[1], args.move_b[2]);
     mesh_b->positions.colwise() += d;
@@ -117,6 +123,11 @@ void add_detect_command(CLI::App& app, Context& ctx) {
   cmd->add_option("--move-b", args->move_b, "Translate B by DX DY DZ (metres)")
       ->expected(3)
       ->type_name("DX DY DZ");
+  cmd->add_option("--turn-b", args->turn_b,
+                  "Turn B by DEG degrees about the axis AX AY AZ through the centre of its box "
+                  "(before --move-b)")
+      ->expected(4)
+      ->type_name("AX AY AZ DEG");
   cmd->add_option("--broad", args->broad, "Broad phase")
       ->check(CLI::IsMember({"grid", "hash", "sap", "bvh"}))
       ->capture_default_str();

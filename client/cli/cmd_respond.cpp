@@ -1,13 +1,17 @@
 // `tetcollide respond FILE_A FILE_B [--scale-a SX SY SZ] [--scale-b SX SY SZ]
-//  [--move-b DX DY DZ] --response point|segment|auto
+//  [--turn-b AX AY AZ DEG] [--spin-b DEG] [--move-b DX DY DZ] --response point|segment|auto
 //  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--lazy local|whole]
 //  [--stiffness K]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
-// meshes, B optionally translated. Either file may be a triangle surface (.stl, .obj, or
-// a .msh with triangles and no tets; docs/SURFACES.md), not both. --contacts lists the point
+// meshes, B optionally turned about its box's centre (after --scale-b) and translated.
+// --spin-b turns B a further DEG degrees a frame about the same axis (z without --turn-b)
+// and its box's centre, so that the frames time an object that turns; the forces and
+// contacts reported are those of the last frame. Either file may be a triangle surface (.stl, .obj,
+// or a .msh with triangles and no tets; docs/SURFACES.md), not both. --contacts lists the point
 // contacts with the depth and direction their forces used; --exact-check compares those depths with
 // the exact distance of each node to the other object's boundary (docs/RESPONSE.md).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -26,6 +30,8 @@ struct RespondArgs {
   std::string file_a;
   std::string file_b;
   std::vector<double> move_b;
+  std::vector<double> turn_b;
+  double spin_b = 0.0;
   std::vector<double> scale_a;
   std::vector<double> scale_b;
   std::string response = "auto";
@@ -94,6 +100,9 @@ int run_respond(const RespondArgs& args) {
   };
   scale(positions_of(*a), args.scale_a);
   scale(positions_of(*b), args.scale_b);
+  if (!args.turn_b.empty())
+    if (Status st = turn_about_centre(positions_of(*b), args.turn_b); !st)
+      return report_error(st.error().message, kExitUsage);
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d shift(args.move_b[0], args.move_b[1], args.move_b[2]);
     positions_of(*b).colwise() += shift;
@@ -130,6 +139,12 @@ int run_respond(const RespondArgs& args) {
     // As in the daemon, the states are made for the frame and the pipeline takes their
     // matrices (run_frame_taking): refilled here, outside the frame's time.
     for (std::size_t i = 0; i < states.size(); ++i) states[i].positions = sent[i].positions;
+    if (args.spin_b != 0.0 && r > 0) {
+      std::vector<double> spin = {0.0, 0.0, 1.0, args.spin_b * r};
+      if (!args.turn_b.empty()) std::copy_n(args.turn_b.begin(), 3, spin.begin());
+      if (Status st = turn_about_centre(states[1].positions, spin); !st)
+        return report_error(st.error().message, kExitUsage);
+    }
     output = pipeline.run_frame_taking(r, states);
     times.push_back(output.stats.total_ms);
     detect_ms.push_back(output.stats.broad_ms + output.stats.narrow_ms);
@@ -244,6 +259,15 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   cmd->add_option("FILE_B", args->file_b, "Mesh of object b (tets, or a surface: .stl, .obj, .msh)")
       ->required();
   cmd->add_option("--move-b", args->move_b, "Translate b by DX DY DZ (metres)")->expected(3);
+  cmd->add_option("--turn-b", args->turn_b,
+                  "Turn b by DEG degrees about the axis AX AY AZ through the centre of its box "
+                  "(after --scale-b, before --move-b)")
+      ->expected(4)
+      ->type_name("AX AY AZ DEG");
+  cmd->add_option("--spin-b", args->spin_b,
+                  "Turn b a further DEG degrees each frame (about the --turn-b axis, else z, "
+                  "through the centre of its box); the last frame is reported")
+      ->type_name("DEG");
   cmd->add_option("--scale-a", args->scale_a, "Scale a by SX SY SZ about the origin (first)")
       ->expected(3);
   cmd->add_option("--scale-b", args->scale_b, "Scale b by SX SY SZ about the origin (first)")

@@ -28,6 +28,21 @@ foreach(broad grid hash sap bvh)
                    --move-b 0 0 0.24 --broad ${broad} --threads 2 --json --repeat 2
               EXIT 0 JSON "overlapping=2363")
 endforeach()
+# --turn-b: the torus tilted 60 degrees about (1, 0.5, 0) through its box's centre, then sunk:
+# every broad phase, on one thread and two, finds the same overlaps. (Turned about the
+# origin instead, the torus would miss the box.)
+foreach(broad grid hash sap bvh)
+  foreach(threads 1 2)
+    tc_cli_test(NAME detect.torus_box_turned.${broad}.${threads}
+                ARGS detect ${TC_DATA_MESHES}/box.msh ${TC_DATA_MESHES}/torus.msh
+                     --turn-b 1 0.5 0 60 --move-b 0 0 0.24 --broad ${broad} --threads ${threads}
+                     --json --repeat 1
+                EXIT 0 JSON "overlapping=16255")
+  endforeach()
+endforeach()
+tc_cli_test(NAME detect.turn_b_zero_axis
+            ARGS detect ${TC_DATA_MESHES}/box.msh ${TC_DATA_MESHES}/torus.msh --turn-b 0 0 0 30
+            EXIT 2 STDERR "--turn-b: the axis must not be zero")
 
 # Bad input: exit 3 with the reader's message; usage errors: exit 2; unwritable: 1.
 tc_cli_test(NAME detect.bad_file_a
