@@ -199,7 +199,9 @@ Eigen::Vector3d dent_centre() {
 /// box wide, 0.02 of it deep, in the middle of the top face), 3 the whole box turned by
 /// 0.01 rad a frame (64 states: 84 MB, read from memory), 4 the whole box turned about a
 /// tilted axis through its middle by 0.01 rad a frame and carried along (4 states, in
-/// the cache as motion 1's, to compare with the floors).
+/// the cache as motion 1's, to compare with the floors), 5 the whole box turned slowly,
+/// 0.001 rad a frame about that axis (64 states, from memory): a shift alone leaves a few
+/// nodes a frame beyond their radii, never a quarter of them.
 std::vector<tc::Positions> box_states(long motion) {
   const tc::Positions& rest = box().positions;
   const Eigen::Vector3d lo = rest.rowwise().minCoeff(), hi = rest.rowwise().maxCoeff();
@@ -236,6 +238,15 @@ std::vector<tc::Positions> box_states(long motion) {
       const Eigen::Vector3d along = Eigen::Vector3d(0.001, 0.002, 0.0) * k * size;
       states.push_back((turn * (rest.colwise() - middle)).colwise() + (middle + along));
     }
+  }
+  if (motion == 5) {
+    const Eigen::Vector3d middle = 0.5 * (lo + hi);
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -0.3, 1.0).normalized();
+    for (int k = 1; k <= 64; ++k)
+      states.push_back(
+          (Eigen::AngleAxisd(0.001 * k, axis).toRotationMatrix() * (rest.colwise() - middle))
+              .colwise() +
+          middle);
   }
   return states;
 }
@@ -397,7 +408,7 @@ BENCHMARK(BM_ValidatePositionsShuffledMorton)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_ShapeCheck)
-    ->ArgsProduct({{1, 2}, {0, 1, 2, 3, 4}, {0, 1}})
+    ->ArgsProduct({{1, 2}, {0, 1, 2, 3, 4, 5}, {0, 1}})
     ->ArgNames({"threads", "motion", "full"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -42,6 +42,9 @@ constexpr std::size_t kSamplePeriod = 512;
 /// More than one node in this many moved: check every tet (a rotation, a large step).
 constexpr std::size_t kBusyFraction = 4;
 
+/// States a fitted turn rests after one that did no better than the shift (ShapeCheck::check).
+constexpr std::size_t kFitPause = 8;
+
 /// Nodes per step of detail::motion_pass().
 constexpr std::size_t kPassStep = 4;
 
@@ -560,13 +563,42 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   // An object that was turning is compared after a turn straight away (a translation alone
   // would leave most of its nodes beyond their radii).
   if ((turning_ || !shift_fits) && !fit()) return busy();
+  // A turn, fast or slow, shows as nodes beyond their radii after the shift alone. A fitted
+  // turn is taken when it leaves clearly fewer beyond (an eighth fewer, at least one), or
+  // fewer than kBusyFraction where the shift left more; a dent stays with the shift, and
+  // the fit then rests for kFitPause states that the shift does not leave busy. Without this, an
+  // object turning a little each frame saw a few nodes beyond every frame, each made its own
+  // reference after the shift alone, and never enough to try a turn; the references, turned by
+  // different amounts, then left no fit that held: the pawn turning 0.05 degrees a frame cost 7.5
+  // ms a frame, 0.07 ms turning 0.2 degrees (docs/BENCHMARKS.md, "Step 19").
+  const auto keep_fit_if_better = [&](std::size_t by_shift, const auto& count_beyond,
+                                      std::size_t of) {
+    const bool busy_by_shift = kBusyFraction * by_shift > of;
+    if (fit_pause_ > 0 && !busy_by_shift) {  // (a busy state always tries the fit)
+      --fit_pause_;
+      return by_shift;
+    }
+    const Rigid shift_motion = motion;
+    if (fit()) {
+      const std::size_t by_fit = count_beyond();
+      if (by_fit + std::max<std::size_t>(1, by_shift / 8) <= by_shift ||
+          (busy_by_shift && kBusyFraction * by_fit <= of))
+        return by_fit;
+    }
+    motion = shift_motion;
+    turned = false;
+    fit_pause_ = kFitPause;
+    return by_shift;
+  };
   if (sampled) {  // a rotation shows in the sample: no need to look at every node
-    const auto sample_busy = [&] {
+    const auto sample_beyond = [&] {
       std::size_t moved = 0;
       visit_sample([&](std::size_t i) { moved += beyond(i) ? 1 : 0; });
-      return kBusyFraction * moved > samples;
+      return moved;
     };
-    if (sample_busy() && (turned || !fit() || sample_busy())) return busy();
+    std::size_t moved = sample_beyond();
+    if (moved > 0 && !turned) moved = keep_fit_if_better(moved, sample_beyond, samples);
+    if (kBusyFraction * moved > samples) return busy();
   }
   const auto pass = [&] {
     // The box of the positions on the way: the nodes are in cache, and the detection
@@ -593,8 +625,18 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     last_.box_hi = box.hi();
   };
   pass();
-  // A small object has no sample: its pass tells, and a turn is tried after it.
-  if (kBusyFraction * moved_.size() > n && !sampled && !turned && fit()) pass();
+  // A small object has no sample: its pass tells, and a turn is tried after it (and the
+  // shift's pass made again when the turn does not do better).
+  if (!sampled && !turned && !moved_.empty()) {
+    bool passed_turned = false;
+    const auto pass_beyond = [&] {
+      pass();
+      passed_turned = true;
+      return moved_.size();
+    };
+    keep_fit_if_better(moved_.size(), pass_beyond, n);
+    if (passed_turned && !turned) pass();
+  }
   last_.moved_nodes = moved_.size();
   if (kBusyFraction * moved_.size() > n) return busy();
   // Every node that is not finite is beyond its radius (orphans' radius is the largest
