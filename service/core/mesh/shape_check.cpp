@@ -565,12 +565,13 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   if ((turning_ || !shift_fits) && !fit()) return busy();
   // A turn, fast or slow, shows as nodes beyond their radii after the shift alone. A fitted
   // turn is taken when it leaves clearly fewer beyond (an eighth fewer, at least one), or
-  // fewer than kBusyFraction where the shift left more; a dent stays with the shift, and
-  // the fit then rests for kFitPause states that the shift does not leave busy. Without this, an
-  // object turning a little each frame saw a few nodes beyond every frame, each made its own
-  // reference after the shift alone, and never enough to try a turn; the references, turned by
-  // different amounts, then left no fit that held: the pawn turning 0.05 degrees a frame cost 7.5
-  // ms a frame, 0.07 ms turning 0.2 degrees (docs/BENCHMARKS.md, "Step 19").
+  // fewer than kBusyFraction where the shift left more. A dent stays with the shift, and the
+  // fit then rests for kFitPause states that the shift does not leave busy. Without this,
+  // an object turning a little each frame saw a few nodes beyond every frame, each made its
+  // own reference after the shift alone, and never enough to try a turn; the references,
+  // turned by different amounts, then left no fit that held. The pawn turning 0.05 degrees
+  // a frame cost 7.5 ms a frame, and 0.07 ms turning 0.2 degrees (docs/BENCHMARKS.md,
+  // "Step 19").
   const auto keep_fit_if_better = [&](std::size_t by_shift, const auto& count_beyond,
                                       std::size_t of) {
     const bool busy_by_shift = kBusyFraction * by_shift > of;
