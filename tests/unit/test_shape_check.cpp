@@ -391,9 +391,10 @@ TEST(ShapeCheck, ALargeObjectTurningIsComparedAfterItsTurn) {
 // a few nodes a frame beyond their radii, never a quarter. Before a turn was tried for
 // those few, each was made its own reference after the shift alone, frame after frame; with
 // references turned by different amounts no fit then held, and the pawn turning 0.05
-// degrees a frame took a full check nearly every frame. Now, once a few nodes are beyond,
-// the check fits the turn and compares after it: no full check, and the tets of a few
-// nodes checked once at most. A large object (sampled) and a small one (its pass tells).
+// degrees a frame made a large share of its nodes their own references again every frame.
+// Now, once a few nodes are beyond, the check fits the turn and compares after it: no full
+// check, and the tets of a few nodes checked once at most. A large object (sampled) and a
+// small one (its pass tells).
 TEST(ShapeCheck, AnObjectTurningSlowlyIsComparedAfterItsTurn) {
   for (const int cells : {22, 9}) {
     SCOPED_TRACE(cells);
