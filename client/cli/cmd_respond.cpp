@@ -103,6 +103,8 @@ int run_respond(const RespondArgs& args) {
   if (!args.turn_b.empty())
     if (Status st = turn_about_centre(positions_of(*b), args.turn_b); !st)
       return report_error(st.error().message, kExitUsage);
+  if (!std::isfinite(args.spin_b))
+    return report_error("--spin-b: the angle must be finite", kExitUsage);
   if (args.move_b.size() == 3) {
     const Eigen::Vector3d shift(args.move_b[0], args.move_b[1], args.move_b[2]);
     positions_of(*b).colwise() += shift;
