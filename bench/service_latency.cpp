@@ -2,7 +2,7 @@
 //
 //   service_latency [--daemon PATH] [--domain N] [--frames N] [--rate HZ] [--depth M]
 //                   [--bob M] [--lockstep | --wait] [--daemon-dds-config URI]
-//                   [--daemon-threads N] [--json]
+//                   [--daemon-threads N] [--daemon-log FILE] [--json]
 //   service_latency --large [--daemon PATH] [--json]
 //
 // Latency mode (default): the torus-in-box scene (data/meshes/torus.msh resting
@@ -422,6 +422,10 @@ int main(int argc, char** argv) {
   app.add_option("--daemon-threads", daemon_threads,
                  "threads of the started daemon (its config's `threads`; 0: one per core)")
       ->check(CLI::NonNegativeNumber);
+  std::string daemon_log;
+  app.add_option("--daemon-log", daemon_log,
+                 "log.file of the started daemon, which then logs at info with a timing summary "
+                 "every second (else it logs warnings to nowhere)");
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
   if (std::getenv("CYCLONEDDS_URI") == nullptr)
@@ -432,9 +436,20 @@ int main(int argc, char** argv) {
     domain = 100 + static_cast<std::uint32_t>(getpid()) % 100;
     const std::string config = "/tmp/tc-bench-" + std::to_string(getpid()) + ".yaml";
     std::ofstream yaml(config);
-    yaml << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+    // A YAML single-quoted scalar: a ' inside is written twice.
+    const auto quoted = [](const std::string& text) {
+      std::string out = "'";
+      for (const char ch : text) out += ch == '\'' ? std::string("''") : std::string(1, ch);
+      return out + "'";
+    };
+    yaml << "version: 1\n";
+    if (daemon_log.empty())
+      yaml << "log:\n  level: warn\n  timing_summary_period_s: 0\n";
+    else
+      yaml << "log:\n  level: info\n  timing_summary_period_s: 1\n  file: " << quoted(daemon_log)
+           << "\n";
     if (!daemon_dds_config.empty())
-      yaml << "dds:\n  cyclonedds_config: '" << daemon_dds_config << "'\n";
+      yaml << "dds:\n  cyclonedds_config: " << quoted(daemon_dds_config) << "\n";
     yaml << "threads: " << daemon_threads << "\n";
     yaml.close();
     if (!daemon.start(daemon_path, domain, config)) return 1;
