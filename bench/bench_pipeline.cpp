@@ -3,9 +3,9 @@
 //   TorusInBox/<threads>/<depth_um>   Pipeline::run_frame of the service's scene
 //       (bench/service_latency): data/meshes/box.msh static, data/meshes/torus.msh
 //       resting depth_um micrometres deep on it and bobbing by +-2 mm (one state per
-//       frame, the torus only). Counters: the stage split of FrameStats and, on 2
-//       threads, the core-to-core round trip before and after (core_rt_*_ns,
-//       bench/core_latency.hpp).
+//       frame, the torus only; 1000 frames a run, two periods of the bob). Counters:
+//       the stage split of FrameStats and, on 2 threads, the core-to-core round trip
+//       before and after (core_rt_*_ns, bench/core_latency.hpp).
 //   TurningTorusInBox/<threads>/<depth_um>   the same with the torus also turning about
 //       its own vertical axis, 0.01 rad a frame.
 //   Register/<cells>                  Pipeline::set_topology of a structured box of
@@ -108,6 +108,11 @@ void torus_in_box(benchmark::State& state, double turn) {
   if (state.range(0) > 1) bench::add_core_round_trips(state, core_rt_before);
 }
 
+/// Frames a run: two whole periods of the bob (500 frames), so that binaries of different
+/// speed average over the same frames (with a minimum time, a faster one ran more frames,
+/// at other depths of the bob, and its stage counters were not comparable).
+constexpr benchmark::IterationCount kFramesPerRun = 1000;
+
 void TorusInBox(benchmark::State& state) {
   torus_in_box(state, 0.0);
 }
@@ -151,14 +156,14 @@ BENCHMARK(TorusInBox)
     ->ArgNames({"threads", "depth_um"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
-    ->MinTime(0.5);
+    ->Iterations(kFramesPerRun);
 BENCHMARK(TurningTorusInBox)
     ->Args({1, 5000})
     ->Args({2, 5000})
     ->ArgNames({"threads", "depth_um"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
-    ->MinTime(0.5);
+    ->Iterations(kFramesPerRun);
 BENCHMARK(Register)
     ->Arg(37)
     ->ArgName("cells")
