@@ -1175,7 +1175,9 @@ TEST(Detector, ARefittedLocalTreeGivesTheOneOffContacts) {
   const Object tool_rest(tool0);
   CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
   CollisionBody body_large(large.mesh.tets, large.topo);
-  Detector detector;
+  DetectOptions no_kept_pairs;  // (kept pairs would serve most of these frames without a tree)
+  no_kept_pairs.keep_pairs = false;
+  Detector detector(no_kept_pairs);
   body_large.set_positions(large.mesh.positions);
   int refitted = 0, built = 0;
   for (int frame = 0; frame < 80; ++frame) {
@@ -1197,6 +1199,132 @@ TEST(Detector, ARefittedLocalTreeGivesTheOneOffContacts) {
   }
   EXPECT_GT(refitted, 20);
   EXPECT_GT(built, 8);
+}
+
+// Kept pairs (DetectOptions::keep_pairs, kBvh): the candidates, and so the contacts, are
+// those a tree gives, bit for bit, over frames in which both objects move a little (the
+// large one deformed node by node), with a jump every 25th frame, with the large object as
+// A (B's tree over all of the small tool) and as B (a tree over B's few tets).
+TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
+  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  const Object tool_rest(tool0);
+  for (const bool large_is_a : {true, false}) {
+    SCOPED_TRACE(large_is_a ? "large=a" : "large=b");
+    CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
+    CollisionBody body_large(large.mesh.tets, large.topo);
+    DetectOptions off;
+    off.keep_pairs = false;
+    Detector with, without(off);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> jitter(-2e-5, 2e-5);
+    int kept = 0, rebuilt = 0;
+    for (int frame = 0; frame < 120; ++frame) {
+      SCOPED_TRACE(frame);
+      Positions pl = large.mesh.positions;
+      for (Eigen::Index i = 0; i < pl.cols(); ++i) pl.col(i) += draw3(jitter, rng);
+      body_large.set_positions(pl);
+      // 0.1 mm a frame along x, 0.05 mm down, 1 mrad about z (a hand at 0.1 m/s at 1 kHz);
+      // 5 cm further along x on frames 20-24 of each 25.
+      const double x = 0.4 + 1e-4 * frame + (frame % 25 >= 20 ? 0.05 : 0.0);
+      const double z = 0.25 + 0.06 - 0.02 - 5e-5 * (frame % 25);
+      const Object tool(moved(tool0, Eigen::AngleAxisd(0.001 * frame, Vector3d::UnitZ()).matrix(),
+                              Vector3d(x, 0.45, z)));
+      body_tool.set_positions(tool.mesh.positions);
+      CollisionBody& a = large_is_a ? body_large : body_tool;
+      CollisionBody& b = large_is_a ? body_tool : body_large;
+      PairContacts got, want;
+      DetectStats st_with, st_without;
+      with.detect(a, b, got, &st_with);
+      without.detect(a, b, want, &st_without);
+      EXPECT_FALSE(want.overlapping.empty());
+      ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
+      expect_identical(got, want);
+      EXPECT_FALSE(st_without.pairs_kept);
+      kept += st_with.pairs_kept ? 1 : 0;
+      rebuilt += st_with.pairs_rebuilt ? 1 : 0;
+    }
+    EXPECT_GT(kept, 90) << kept;       // kept pairs served most frames
+    EXPECT_GE(rebuilt, 5) << rebuilt;  // and were made again after each jump at least
+  }
+}
+
+// Contact that moves too fast for kept pairs: they sit out (the tree serves) and come back
+// once it slows down; the candidates are the tree's throughout.
+TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
+  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  const Object tool_rest(tool0);
+  CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
+  CollisionBody body_large(large.mesh.tets, large.topo);
+  body_large.set_positions(large.mesh.positions);
+  DetectOptions off;
+  off.keep_pairs = false;
+  Detector with, without(off);
+  int kept_fast = 0, kept_slow = 0;
+  const int fast = 40, slow = 120;
+  double x = 0.3;
+  for (int frame = 0; frame < fast + slow; ++frame) {
+    SCOPED_TRACE(frame);
+    if (frame > 0) body_large.reuse_positions();
+    x += frame < fast ? (frame % 2 == 0 ? 0.02 : -0.015) : 1e-5;  // 1-2 cm a frame, then 10 um
+    const Object tool(moved(tool0, Matrix3d::Identity(), Vector3d(x, 0.45, 0.29)));
+    body_tool.set_positions(tool.mesh.positions);
+    PairContacts got, want;
+    DetectStats st;
+    with.detect(body_tool, body_large, got, &st);
+    without.detect(body_tool, body_large, want);
+    ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
+    expect_identical(got, want);
+    (frame < fast ? kept_fast : kept_slow) += st.pairs_kept ? 1 : 0;
+  }
+  EXPECT_LT(kept_fast, fast / 2) << "kept pairs should sit out fast contact";
+  EXPECT_GT(kept_slow, slow / 4) << "and serve again once it is slow";
+}
+
+// One Detector over several object pairs in turn (as the pipeline runs it): each pair
+// keeps its own pairs, and every call gives the tree's candidates.
+TEST(Detector, KeptPairsOfSeveralObjectPairsOnOneDetector) {
+  const Object large(test::structured_box(12, 12, 3, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  const Object tool_rest(tool0);
+  CollisionBody body_large(large.mesh.tets, large.topo);
+  std::vector<std::unique_ptr<CollisionBody>> tools;
+  for (int t = 0; t < 3; ++t)
+    tools.push_back(std::make_unique<CollisionBody>(tool_rest.mesh.tets, tool_rest.topo));
+  body_large.set_positions(large.mesh.positions);
+  DetectOptions off;
+  off.keep_pairs = false;
+  Detector with, without(off);
+  std::vector<Object> posed;
+  int kept = 0, calls = 0;
+  for (int frame = 0; frame < 30; ++frame) {
+    SCOPED_TRACE(frame);
+    if (frame > 0) body_large.reuse_positions();
+    posed.clear();
+    for (int t = 0; t < 3; ++t)  // the second and third tools overlap each other too
+      posed.emplace_back(moved(tool0, Matrix3d::Identity(),
+                               Vector3d(0.2 + 0.3 * (t > 0 ? 1 : 0) + 0.08 * (t == 2 ? 1 : 0),
+                                        0.4 + 1e-4 * frame, 0.29)));
+    for (int t = 0; t < 3; ++t) tools[t]->set_positions(posed[t].mesh.positions);
+    const std::array<std::pair<CollisionBody*, CollisionBody*>, 4> pairs = {
+        {{tools[0].get(), &body_large},
+         {tools[1].get(), &body_large},
+         {&body_large, tools[2].get()},
+         {tools[1].get(), tools[2].get()}}};
+    for (const auto& [a, b] : pairs) {
+      PairContacts got, want;
+      DetectStats st;
+      with.detect(*a, *b, got, &st);
+      without.detect(*a, *b, want);
+      EXPECT_FALSE(want.overlapping.empty());
+      ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
+      expect_identical(got, want);
+      kept += st.pairs_kept ? 1 : 0;
+      ++calls;
+    }
+  }
+  EXPECT_GT(kept, calls * 3 / 4);
 }
 
 TEST(Detect, NonFiniteNodesAreIgnored) {

@@ -63,6 +63,8 @@ constexpr std::size_t kNarrowChunk = 256;
 constexpr std::size_t kFeatureChunk = 32;
 constexpr std::size_t kFilterChunk = 1024;
 constexpr std::size_t kParallelSortMin = 16384;
+/// Kept pairs tested a chunk (candidates_from_kept()).
+constexpr std::size_t kKeptChunk = 2048;
 /// Frames a local tree over the same tets is refitted before it is built again.
 constexpr int kLocalTreeRefits = 32;
 
@@ -744,6 +746,257 @@ void Detector::clear_slots(Geometry& g) {
   for (const Index t : g.tets) g.slot[t] = -1;
 }
 
+void Detector::filter_tets(const CollisionBody& body, std::span<const Index> near,
+                           const Aabb& region, std::vector<Index>& subset,
+                           std::vector<Aabb>& boxes) {
+  // Each tet whose box meets the region gets the box of its part inside it (exact across
+  // the region's thinnest axis): where the objects barely touch, the overlap box is a
+  // thin slab and these boxes are much smaller than the tets'.
+  const Eigen::Vector3d extent = region.hi - region.lo;
+  int slab_axis = 0;
+  if (extent.y() < extent[slab_axis]) slab_axis = 1;
+  if (extent.z() < extent[slab_axis]) slab_axis = 2;
+  const double rel = relative_tolerance();
+  const std::size_t m = near.size();
+  const std::size_t chunks = detail::num_chunks(m, kFilterChunk);
+  detail::reset_parts(index_parts_, chunks);
+  detail::reset_parts(box_parts_, chunks);
+  const Positions& p = *body.positions_;
+  detail::for_chunks(m, kFilterChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+    // The tets whose box meets the region, 4 at a time through clipped_tet_boxes4 (the
+    // same boxes as clipped_tet_box), in order.
+    std::array<TetCorners, 4> corners;
+    std::array<double, 4> pads;
+    std::array<Index, 4> tets;
+    std::array<Aabb, 4> clipped;
+    std::size_t waiting = 0;
+    const auto flush = [&] {
+      if (waiting == 4) {
+        clipped_tet_boxes4(corners, region, slab_axis, pads, clipped);
+      } else {
+        for (std::size_t j = 0; j < waiting; ++j)
+          clipped[j] = clipped_tet_box(corners[j], region, slab_axis, pads[j]);
+      }
+      for (std::size_t j = 0; j < waiting; ++j) {
+        if (clipped[j].empty()) continue;
+        index_parts_[c].push_back(tets[j]);
+        box_parts_[c].push_back(clipped[j]);
+      }
+      waiting = 0;
+    };
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto t = static_cast<std::size_t>(near[i]);
+      const Aabb& raw = body.bounds_.boxes[t];
+      if (!raw.overlaps(region)) continue;
+      // Pad: the tolerance scale of this tet, plus rounding of its coordinates.
+      pads[waiting] = rel * (raw.hi - raw.lo).maxCoeff() +
+                      8.0 * std::numeric_limits<double>::epsilon() *
+                          raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
+      corners[waiting] = tet_corners(p, body.tets_[t]);
+      tets[waiting] = static_cast<Index>(t);
+      if (++waiting == 4) flush();
+    }
+    flush();
+  });
+  detail::concat_parts(index_parts_, chunks, subset);
+  detail::concat_parts(box_parts_, chunks, boxes);
+}
+
+/// The broad-phase pairs of one object pair, kept across frames: every pair of entries of
+/// the two `tets` lists whose `boxes` overlap. Each entry's box is the box of its tet's
+/// part inside the overlap box padded by `margin`, itself padded by `margin`. While each
+/// tet that the broad phase keeps in a later frame is in these lists and its box then lies
+/// inside its box here, every pair whose boxes overlap then is among these pairs (each box
+/// lies inside its padded one, so the padded ones overlap too): testing these pairs' boxes
+/// of the frame gives the same candidates as a tree would.
+struct Detector::KeptPairs {
+  const CollisionBody* a = nullptr;
+  const CollisionBody* b = nullptr;
+  std::array<std::vector<Index>, 2> tets;  ///< A's and B's, sorted
+  std::array<std::vector<Aabb>, 2> boxes;  ///< padded, per entry of tets
+  std::array<std::vector<Index>, 2> slot;  ///< per tet of the body: entry in tets, or -1
+  /// The pairs, each as (A's entry, B's entry) rather than tets (one list made in place),
+  /// sorted: the entries follow tet order, so these follow (tet_a, tet_b).
+  std::vector<TetPair> pairs;
+  /// This call's box of each entry (empty when the broad phase did not keep its tet).
+  std::array<std::vector<Aabb>, 2> now;
+  /// The margin as a fraction of the mean box extent of the tets near the contact:
+  /// halved when a list serves long, doubled when it serves briefly.
+  double fraction = 0.02;
+  int served = 0;           ///< calls served since made
+  int pause = 0;            ///< calls left before keeping again
+  int pauses = 0;           ///< pauses in a row
+  int shorts = 0;           ///< short-lived lists in a row with the widest margin
+  std::uint64_t used = 0;   ///< last use (the Detector's count of calls)
+  AabbTree tree;            ///< over B's padded boxes, when made
+  std::vector<Index> near;  ///< scratch
+};
+
+namespace {
+
+/// The margin's fraction of the mean box extent near the contact stays in this range. A
+/// list that serves fewer than kKeptShort calls gets a wider margin next time; after two
+/// such lists in a row with the widest margin, none is made for kKeptPause calls (contact
+/// that moves too fast for kept pairs is not slowed down), and each further pause in a row
+/// is twice as long, up to 16 times. A list that serves more than kKeptLong calls gets a
+/// narrower margin next time (fewer pairs to test).
+constexpr double kKeptMinFraction = 0.005;
+constexpr double kKeptMaxFraction = 0.08;
+constexpr int kKeptShort = 8;
+constexpr int kKeptLong = 64;
+constexpr int kKeptPause = 64;
+constexpr int kKeptMaxPauseShift = 4;  ///< pauses in a row grow to 16 kKeptPause
+/// Object pairs whose kept pairs are held (the least recently used goes first).
+constexpr std::size_t kKeptPairsHeld = 16;
+
+bool inside(const Aabb& box, const Aabb& outer) {
+  return outer.lo.x() <= box.lo.x() && outer.lo.y() <= box.lo.y() && outer.lo.z() <= box.lo.z() &&
+         box.hi.x() <= outer.hi.x() && box.hi.y() <= outer.hi.y() && box.hi.z() <= outer.hi.z();
+}
+
+}  // namespace
+
+Detector::KeptPairs* Detector::kept_of(const CollisionBody& a, const CollisionBody& b) {
+  KeptPairs* k = nullptr;
+  for (auto& e : kept_)
+    if (e->a == &a && e->b == &b) k = e.get();
+  if (k == nullptr) {
+    if (kept_.size() >= kKeptPairsHeld)
+      kept_.erase(std::min_element(kept_.begin(), kept_.end(),
+                                   [](const auto& x, const auto& y) { return x->used < y->used; }));
+    kept_.push_back(std::make_unique<KeptPairs>());
+    k = kept_.back().get();
+    k->a = &a;
+    k->b = &b;
+  }
+  k->used = ++kept_calls_;
+  return k;
+}
+
+bool Detector::kept_paused(KeptPairs& k) {
+  if (k.pause == 0) return false;
+  --k.pause;
+  return true;
+}
+
+bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBody& b,
+                                    const Aabb& cull, DetectStats& st) {
+  const std::array<CollisionBody*, 2> bodies = {&a, &b};
+  const std::array<const std::vector<Index>*, 2> subsets = {&subset_a_, &subset_b_};
+  const std::array<const std::vector<Aabb>*, 2> boxes_now = {&boxes_a_, &boxes_b_};
+  // Whether each tet the broad phase kept is in the lists with its box inside its padded
+  // one; on the way, this call's box of each entry.
+  const auto covers = [&] {
+    for (std::size_t s = 0; s < 2; ++s) {
+      const std::vector<Index>& slot = k->slot[s];
+      const std::vector<Aabb>& padded = k->boxes[s];
+      const std::vector<Index>& tets = *subsets[s];
+      const std::vector<Aabb>& boxes = *boxes_now[s];
+      std::vector<Aabb>& now = k->now[s];
+      if (slot.size() != bodies[s]->tets_.size()) return false;
+      now.assign(padded.size(), Aabb{});
+      for (std::size_t i = 0; i < tets.size(); ++i) {
+        const Index j = slot[static_cast<std::size_t>(tets[i])];
+        if (j < 0 || !inside(boxes[i], padded[static_cast<std::size_t>(j)])) return false;
+        now[static_cast<std::size_t>(j)] = boxes[i];
+      }
+    }
+    return true;
+  };
+  if (!covers()) {
+    if (!k->tets[0].empty()) {  // a list that served k->served calls: its margin next time
+      if (k->served < kKeptShort) {
+        // Short-lived: a wider margin next time. Twice in a row with the widest one (a
+        // jump of the contact ends one short list, not two), too fast for kept pairs:
+        // they sit out, longer each time in a row.
+        k->shorts = k->fraction >= kKeptMaxFraction ? k->shorts + 1 : 0;
+        if (k->shorts >= 2) {
+          k->pause = kKeptPause << std::min(k->pauses++, kKeptMaxPauseShift);
+          k->fraction = kKeptMaxFraction / 2;
+          k->shorts = 0;
+          k->tets[0].clear();
+          return false;
+        }
+        k->fraction = std::min(2 * k->fraction, kKeptMaxFraction);
+      } else {
+        k->shorts = 0;
+        k->pauses = 0;
+        if (k->served > kKeptLong) k->fraction = std::max(k->fraction / 2, kKeptMinFraction);
+      }
+    }
+    // Made again, over the tets near the overlap box padded by the margin.
+    double extent = 0.0;
+    std::size_t count = 0;
+    for (std::size_t s = 0; s < 2; ++s)
+      for (const Index t : *subsets[s]) {
+        const Aabb& raw = bodies[s]->bounds_.boxes[static_cast<std::size_t>(t)];
+        extent += (raw.hi - raw.lo).maxCoeff();
+        ++count;
+      }
+    const double margin = count > 0 ? k->fraction * extent / static_cast<double>(count) : 0.0;
+    if (!(margin > 0.0) || !std::isfinite(margin)) return false;
+    const Eigen::Vector3d pad = Eigen::Vector3d::Constant(margin);
+    const Aabb region{cull.lo - pad, cull.hi + pad};
+    for (std::size_t s = 0; s < 2; ++s) {
+      for (const Index t : k->tets[s]) k->slot[s][static_cast<std::size_t>(t)] = -1;
+      CollisionBody& body = *bodies[s];
+      if (options_.cluster_cull) {
+        body.tets_near(region, k->near);
+      } else {
+        k->near.resize(body.tets_.size());
+        std::iota(k->near.begin(), k->near.end(), Index{0});
+      }
+      body.ensure_bounds(k->near, false);
+      filter_tets(body, k->near, region, k->tets[s], k->boxes[s]);
+      for (Aabb& box : k->boxes[s]) {
+        box.lo -= pad;
+        box.hi += pad;
+      }
+      k->slot[s].resize(body.tets_.size(), -1);
+      for (std::size_t i = 0; i < k->tets[s].size(); ++i)
+        k->slot[s][static_cast<std::size_t>(k->tets[s][i])] = static_cast<Index>(i);
+    }
+    k->tree.build(k->boxes[1]);
+    BvhSide bvh;
+    bvh.tree = &k->tree;
+    bvh.tet_boxes = k->boxes[1];
+    bvh.over_side = true;
+    broad_.find_pairs(BroadPhaseKind::kBvh, {k->tets[0], k->boxes[0], a.bounds_.spheres},
+                      {k->tets[1], k->boxes[1], b.bounds_.spheres}, bvh, k->pairs);
+    for (TetPair& p : k->pairs)
+      p = {k->slot[0][static_cast<std::size_t>(p.tet_a)],
+           k->slot[1][static_cast<std::size_t>(p.tet_b)]};
+    k->served = 0;
+    st.pairs_rebuilt = true;
+    if (!covers()) {  // (rounding beyond the margin: not expected)
+      k->tets[0].clear();
+      return false;
+    }
+  }
+  // This call's candidates: the kept pairs whose boxes of this frame overlap, in order,
+  // written without a branch on each.
+  const std::vector<TetPair>& pairs = k->pairs;
+  const std::size_t chunks = detail::num_chunks(pairs.size(), kKeptChunk);
+  detail::reset_parts(pair_parts_, chunks);
+  detail::for_chunks(
+      pairs.size(), kKeptChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+        std::vector<TetPair>& part = pair_parts_[c];
+        part.resize(end - begin);
+        std::size_t kept = 0;
+        for (std::size_t i = begin; i < end; ++i) {
+          const auto ia = static_cast<std::size_t>(pairs[i].tet_a);  // entries (above)
+          const auto ib = static_cast<std::size_t>(pairs[i].tet_b);
+          part[kept] = {k->tets[0][ia], k->tets[1][ib]};
+          kept += k->now[0][ia].overlaps(k->now[1][ib]) ? 1 : 0;
+        }
+        part.resize(kept);
+      });
+  detail::concat_parts(pair_parts_, chunks, candidates_);
+  ++k->served;
+  st.pairs_kept = true;
+  return true;
+}
+
 void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, DetectStats* stats,
                       const EdgeNeed& need_edges) {
   const auto start = Clock::now();
@@ -788,7 +1041,11 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   // the same pairs.
   const bool full_tree = kind == BroadPhaseKind::kBvh &&
                          (!options_.cluster_cull || 2 * near_b_.size() > b.tets_.size());
-  if (full_tree)
+  // Kept pairs need no tree: B's bounds where it is near, as for a local tree.
+  KeptPairs* const kept_pairs =
+      kind == BroadPhaseKind::kBvh && options_.keep_pairs ? kept_of(a, b) : nullptr;
+  const bool keep = kept_pairs != nullptr && !kept_paused(*kept_pairs);
+  if (full_tree && !keep)
     b.prepare(kind);
   else
     b.ensure_bounds(near_b_, spheres);
@@ -796,68 +1053,20 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   st.bounds_ms = ms_since(start);
 
   // Tets whose box meets the overlap box of the two objects: the only ones that can
-  // overlap anything of the other object. Each gets the box of its part inside that
-  // overlap box (exact across its thinnest axis): where the objects barely touch the
-  // overlap box is a thin slab and these boxes are much smaller than the tets'.
-  const Eigen::Vector3d cull_extent = cull.hi - cull.lo;
-  int slab_axis = 0;
-  if (cull_extent.y() < cull_extent[slab_axis]) slab_axis = 1;
-  if (cull_extent.z() < cull_extent[slab_axis]) slab_axis = 2;
-  const double rel = relative_tolerance();
-  const auto filter = [&](const CollisionBody& body, const std::vector<Index>& near,
-                          std::vector<Index>& subset, std::vector<Aabb>& boxes) {
-    const std::size_t m = near.size();
-    const std::size_t chunks = detail::num_chunks(m, kFilterChunk);
-    detail::reset_parts(index_parts_, chunks);
-    detail::reset_parts(box_parts_, chunks);
-    const Positions& p = *body.positions_;
-    detail::for_chunks(m, kFilterChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-      // The tets whose box meets the overlap box, 4 at a time through clipped_tet_boxes4
-      // (the same boxes as clipped_tet_box), in order.
-      std::array<TetCorners, 4> corners;
-      std::array<double, 4> pads;
-      std::array<Index, 4> tets;
-      std::array<Aabb, 4> clipped;
-      std::size_t waiting = 0;
-      const auto flush = [&] {
-        if (waiting == 4) {
-          clipped_tet_boxes4(corners, cull, slab_axis, pads, clipped);
-        } else {
-          for (std::size_t j = 0; j < waiting; ++j)
-            clipped[j] = clipped_tet_box(corners[j], cull, slab_axis, pads[j]);
-        }
-        for (std::size_t j = 0; j < waiting; ++j) {
-          if (clipped[j].empty()) continue;
-          index_parts_[c].push_back(tets[j]);
-          box_parts_[c].push_back(clipped[j]);
-        }
-        waiting = 0;
-      };
-      for (std::size_t i = begin; i < end; ++i) {
-        const auto t = static_cast<std::size_t>(near[i]);
-        const Aabb& raw = body.bounds_.boxes[t];
-        if (!raw.overlaps(cull)) continue;
-        // Pad: the tolerance scale of this tet, plus rounding of its coordinates.
-        pads[waiting] = rel * (raw.hi - raw.lo).maxCoeff() +
-                        8.0 * std::numeric_limits<double>::epsilon() *
-                            raw.lo.cwiseAbs().cwiseMax(raw.hi.cwiseAbs()).maxCoeff();
-        corners[waiting] = tet_corners(p, body.tets_[t]);
-        tets[waiting] = static_cast<Index>(t);
-        if (++waiting == 4) flush();
-      }
-      flush();
-    });
-    detail::concat_parts(index_parts_, chunks, subset);
-    detail::concat_parts(box_parts_, chunks, boxes);
-  };
-  filter(a, near_a_, subset_a_, boxes_a_);
-  filter(b, near_b_, subset_b_, boxes_b_);
+  // overlap anything of the other object (filter_tets()).
+  filter_tets(a, near_a_, cull, subset_a_, boxes_a_);
+  filter_tets(b, near_b_, cull, subset_b_, boxes_b_);
   st.tets_a_in_box = subset_a_.size();
   st.tets_b_in_box = subset_b_.size();
+  const double rel = relative_tolerance();
 
+  const bool from_kept = keep && candidates_from_kept(kept_pairs, a, b, cull, st);
+  if (!from_kept && full_tree && keep) b.prepare(kind);
   BvhSide bvh;
-  const bool local_tree = !full_tree && kind == BroadPhaseKind::kBvh;
-  if (full_tree) {
+  const bool local_tree = !from_kept && !full_tree && kind == BroadPhaseKind::kBvh;
+  if (from_kept) {
+    // candidates_ made
+  } else if (full_tree) {
     if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
     for (std::size_t k = 0; k < subset_b_.size(); ++k)
       box_slot_[subset_b_[k]] = static_cast<Index>(k);
@@ -881,9 +1090,10 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     bvh.tet_boxes = boxes_b_;
     bvh.over_side = true;
   }
-  broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
-                    {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
-  if (full_tree)
+  if (!from_kept)
+    broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
+                      {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
+  if (full_tree && !from_kept)
     for (const Index t : subset_b_) box_slot_[t] = -1;
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();

@@ -47,6 +47,11 @@ struct DetectOptions {
   /// half of B). Off: every tet every frame, as before clusters. The contacts are the
   /// same either way (tests/unit/test_detect.cpp checks it); only the cost differs.
   bool cluster_cull = true;
+  /// kBvh: keep each pair's broad-phase pairs across frames, over boxes padded by a margin,
+  /// and while every tet's box of this frame lies inside its padded box, take the
+  /// candidates from them (an exact box test a pair) instead of querying a tree. The same
+  /// candidates either way (tests/unit/test_detect.cpp checks it); only the cost differs.
+  bool keep_pairs = true;
 };
 
 /// What one detect() call did and how long it took.
@@ -67,6 +72,10 @@ struct DetectStats {
   /// kBvh over B's few tets near the contact: the last call's tree over the same tets
   /// was refitted rather than built again.
   bool local_tree_refitted = false;
+  /// The candidates came from pairs kept from an earlier call (DetectOptions::keep_pairs).
+  bool pairs_kept = false;
+  /// The kept pairs of this object pair were made again in this call.
+  bool pairs_rebuilt = false;
 };
 
 /// One object as detection sees it: its topology-derived tables (built once, in the
@@ -293,6 +302,21 @@ class Detector {
                        const CollisionBody& y, const Geometry& gy, int gy_side,
                        std::vector<IntrudingEdge>& out);
   void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
+  struct KeptPairs;
+  /// The kept pairs of (a, b), made empty when there are none (the least recently used
+  /// object pair's go when kKeptPairsHeld are held).
+  KeptPairs* kept_of(const CollisionBody& a, const CollisionBody& b);
+  /// True while the kept pairs of `k` sit out (contact that moved too fast for them);
+  /// counts the call.
+  static bool kept_paused(KeptPairs& k);
+  /// The candidates of this call from the kept pairs `k` of (a, b) (made again when this
+  /// frame's boxes leave them), into candidates_; false when they cannot serve this call.
+  bool candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBody& b, const Aabb& cull,
+                            DetectStats& st);
+  /// subset_x_ and boxes_x_ of `body`: its tets among `near` whose box meets `region`, and
+  /// the box of each one's part inside it.
+  void filter_tets(const CollisionBody& body, std::span<const Index> near, const Aabb& region,
+                   std::vector<Index>& subset, std::vector<Aabb>& boxes);
   /// options_.relative_tolerance, with negative or NaN read as 0.
   [[nodiscard]] double relative_tolerance() const {
     return options_.relative_tolerance > 0.0 ? options_.relative_tolerance : 0.0;
@@ -315,6 +339,8 @@ class Detector {
   int local_tree_refits_ = 0;
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
+  std::vector<std::unique_ptr<KeptPairs>> kept_;  ///< per object pair, most recent first
+  std::uint64_t kept_calls_ = 0;                  ///< candidates_from_kept() calls
   Geometry geom_a_, geom_b_;
   std::unique_ptr<ThreadGeometry> thread_geometry_;  ///< each thread's geometry of both bodies
   std::uint64_t geometry_stamp_ = 0;                 ///< detect() calls that built geometry
