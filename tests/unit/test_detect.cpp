@@ -187,6 +187,18 @@ void expect_identical(const PairContacts& got, const PairContacts& want) {
   expect_same_edges(got.edges_b_in_a, want.edges_b_in_a, "edges_b_in_a");
 }
 
+/// Runs two detectors whose options differ only in cost (cluster cull, kept pairs) on
+/// (a, b): the contacts are not empty, and the candidates and contacts are the same.
+void expect_same_detection(Detector& with, Detector& without, CollisionBody& a, CollisionBody& b,
+                           DetectStats& st_with, DetectStats& st_without) {
+  PairContacts got, want;
+  with.detect(a, b, got, &st_with);
+  without.detect(a, b, want, &st_without);
+  EXPECT_FALSE(want.overlapping.empty());
+  EXPECT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
+  expect_identical(got, want);
+}
+
 /// Sorted, duplicate-free and within the documented ranges.
 void expect_well_formed(const PairContacts& c) {
   EXPECT_TRUE(std::is_sorted(c.overlapping.begin(), c.overlapping.end()));
@@ -646,13 +658,8 @@ TEST(Detect, ClusterCullGivesTheFullPassContactsAndLooksAtFewTets) {
         body_tool.set_positions(tool.mesh.positions);
         CollisionBody& a = large_is_a ? body_large : body_tool;
         CollisionBody& b = large_is_a ? body_tool : body_large;
-        PairContacts got, want;
         DetectStats st_on, st_off;
-        with.detect(a, b, got, &st_on);
-        without.detect(a, b, want, &st_off);
-        EXPECT_FALSE(want.overlapping.empty());
-        expect_identical(got, want);
-        EXPECT_EQ(st_on.candidates, st_off.candidates);
+        expect_same_detection(with, without, a, b, st_on, st_off);
         const std::size_t large_near = large_is_a ? st_on.tets_a_near : st_on.tets_b_near;
         EXPECT_EQ(large_is_a ? st_off.tets_a_near : st_off.tets_b_near, large.mesh.tets.size());
         EXPECT_LT(large_near * 10, large.mesh.tets.size()) << large_near;
@@ -1231,15 +1238,9 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
       const Object tool(moved(tool0, Eigen::AngleAxisd(0.001 * frame, Vector3d::UnitZ()).matrix(),
                               Vector3d(x, 0.45, z)));
       body_tool.set_positions(tool.mesh.positions);
-      CollisionBody& a = large_is_a ? body_large : body_tool;
-      CollisionBody& b = large_is_a ? body_tool : body_large;
-      PairContacts got, want;
       DetectStats st_with, st_without;
-      with.detect(a, b, got, &st_with);
-      without.detect(a, b, want, &st_without);
-      EXPECT_FALSE(want.overlapping.empty());
-      ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
-      expect_identical(got, want);
+      expect_same_detection(with, without, large_is_a ? body_large : body_tool,
+                            large_is_a ? body_tool : body_large, st_with, st_without);
       EXPECT_FALSE(st_without.pairs_kept);
       kept += st_with.pairs_kept ? 1 : 0;
       rebuilt += st_with.pairs_rebuilt ? 1 : 0;
@@ -1270,12 +1271,8 @@ TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
     x += frame < fast ? (frame % 2 == 0 ? 0.02 : -0.015) : 1e-5;  // 1-2 cm a frame, then 10 um
     const Object tool(moved(tool0, Matrix3d::Identity(), Vector3d(x, 0.45, 0.29)));
     body_tool.set_positions(tool.mesh.positions);
-    PairContacts got, want;
-    DetectStats st;
-    with.detect(body_tool, body_large, got, &st);
-    without.detect(body_tool, body_large, want);
-    ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
-    expect_identical(got, want);
+    DetectStats st, st_without;
+    expect_same_detection(with, without, body_tool, body_large, st, st_without);
     (frame < fast ? kept_fast : kept_slow) += st.pairs_kept ? 1 : 0;
   }
   EXPECT_LT(kept_fast, fast / 2) << "kept pairs should sit out fast contact";
@@ -1313,13 +1310,8 @@ TEST(Detector, KeptPairsOfSeveralObjectPairsOnOneDetector) {
          {&body_large, tools[2].get()},
          {tools[1].get(), tools[2].get()}}};
     for (const auto& [a, b] : pairs) {
-      PairContacts got, want;
-      DetectStats st;
-      with.detect(*a, *b, got, &st);
-      without.detect(*a, *b, want);
-      EXPECT_FALSE(want.overlapping.empty());
-      ASSERT_TRUE(std::ranges::equal(with.candidates(), without.candidates()));
-      expect_identical(got, want);
+      DetectStats st, st_without;
+      expect_same_detection(with, without, *a, *b, st, st_without);
       kept += st.pairs_kept ? 1 : 0;
       ++calls;
     }
