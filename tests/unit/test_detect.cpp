@@ -1242,6 +1242,9 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
       expect_same_detection(with, without, large_is_a ? body_large : body_tool,
                             large_is_a ? body_tool : body_large, st_with, st_without);
       EXPECT_FALSE(st_without.pairs_kept);
+      if (frame == 0) {
+        EXPECT_FALSE(st_with.pairs_kept) << "a new pair's first call is served by the tree";
+      }
       kept += st_with.pairs_kept ? 1 : 0;
       rebuilt += st_with.pairs_rebuilt ? 1 : 0;
     }

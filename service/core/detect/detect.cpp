@@ -823,8 +823,11 @@ struct Detector::KeptPairs {
   /// The margin as a fraction of the mean box extent of the tets near the contact:
   /// halved when a list serves long, doubled when it serves briefly.
   double fraction = 0.02;
-  int served = 0;           ///< calls served since made
-  int pause = 0;            ///< calls left before keeping again
+  int served = 0;  ///< calls served since made
+  /// Calls left before keeping again. A new object pair starts with one: its first call
+  /// is served by the tree (a one-off detection, or the first frame of a contact that may
+  /// not last, would pay for a list it never uses).
+  int pause = 1;
   int pauses = 0;           ///< pauses in a row
   int shorts = 0;           ///< short-lived lists in a row with the widest margin
   std::uint64_t used = 0;   ///< last use (the Detector's count of calls)
