@@ -1173,15 +1173,22 @@ TEST(Detect, AMotionBoundsGrownRadiusAndShiftMoveTheGroupBoxes) {
   EXPECT_TRUE(bound.groups_from_bound());
 }
 
+/// A ball tool (radius 6 cm) and a slab (1 x 1 x 0.25 m, 16 x 16 x 4 cells), each with a
+/// body: the scene of the tool-on-slab tests below.
+struct ToolOnSlab {
+  const Object large{test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25))};
+  const TetMesh tool0 = test::ball_mesh(3, 0.06);
+  const Object tool_rest{tool0};
+  CollisionBody body_tool{tool_rest.mesh.tets, tool_rest.topo};
+  CollisionBody body_large{large.mesh.tets, large.topo};
+};
+
 // A tool creeping across a large object (1 kHz motion): the tree over the large object's
 // few tets near the contact is refitted while those tets stay the same, and rebuilt when
 // they change or after 32 refits; the contacts are every frame those of a one-off.
 TEST(Detector, ARefittedLocalTreeGivesTheOneOffContacts) {
-  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
-  const TetMesh tool0 = test::ball_mesh(3, 0.06);
-  const Object tool_rest(tool0);
-  CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
-  CollisionBody body_large(large.mesh.tets, large.topo);
+  ToolOnSlab scene;
+  auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
   DetectOptions no_kept_pairs;  // (kept pairs would serve most of these frames without a tree)
   no_kept_pairs.keep_pairs = false;
   Detector detector(no_kept_pairs);
@@ -1213,13 +1220,10 @@ TEST(Detector, ARefittedLocalTreeGivesTheOneOffContacts) {
 // large one deformed node by node), with a jump every 25th frame, with the large object as
 // A (B's tree over all of the small tool) and as B (a tree over B's few tets).
 TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
-  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
-  const TetMesh tool0 = test::ball_mesh(3, 0.06);
-  const Object tool_rest(tool0);
   for (const bool large_is_a : {true, false}) {
     SCOPED_TRACE(large_is_a ? "large=a" : "large=b");
-    CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
-    CollisionBody body_large(large.mesh.tets, large.topo);
+    ToolOnSlab scene;
+    auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
     DetectOptions off;
     off.keep_pairs = false;
     Detector with, without(off);
@@ -1256,11 +1260,8 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
 // Contact that moves too fast for kept pairs: they sit out (the tree serves) and come back
 // once it slows down; the candidates are the tree's throughout.
 TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
-  const Object large(test::structured_box(16, 16, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 0.25)));
-  const TetMesh tool0 = test::ball_mesh(3, 0.06);
-  const Object tool_rest(tool0);
-  CollisionBody body_tool(tool_rest.mesh.tets, tool_rest.topo);
-  CollisionBody body_large(large.mesh.tets, large.topo);
+  ToolOnSlab scene;
+  auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
   body_large.set_positions(large.mesh.positions);
   DetectOptions off;
   off.keep_pairs = false;

@@ -52,6 +52,11 @@ struct Aabb {
            std::max(lo.y(), o.lo.y()) <= std::min(hi.y(), o.hi.y()) &&
            std::max(lo.z(), o.lo.z()) <= std::min(hi.z(), o.hi.z());
   }
+  /// Each bound of `o` lies within this box's (closed test); meant for a non-empty `o`.
+  [[nodiscard]] bool contains(const Aabb& o) const {
+    return lo.x() <= o.lo.x() && lo.y() <= o.lo.y() && lo.z() <= o.lo.z() && o.hi.x() <= hi.x() &&
+           o.hi.y() <= hi.y() && o.hi.z() <= hi.z();
+  }
   void extend(const Eigen::Vector3d& p) {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);

@@ -746,6 +746,16 @@ void Detector::clear_slots(Geometry& g) {
   for (const Index t : g.tets) g.slot[t] = -1;
 }
 
+void Detector::gather_near(CollisionBody& body, const Aabb& region,
+                           std::vector<Index>& list) const {
+  if (options_.cluster_cull) {
+    body.tets_near(region, list);
+  } else {
+    list.resize(body.tets_.size());
+    std::iota(list.begin(), list.end(), Index{0});
+  }
+}
+
 void Detector::filter_tets(const CollisionBody& body, std::span<const Index> near,
                            const Aabb& region, std::vector<Index>& subset,
                            std::vector<Aabb>& boxes) {
@@ -852,11 +862,6 @@ constexpr int kKeptMaxPauseShift = 4;  ///< pauses in a row grow to 16 kKeptPaus
 /// Object pairs whose kept pairs are held (the least recently used goes first).
 constexpr std::size_t kKeptPairsHeld = 16;
 
-bool inside(const Aabb& box, const Aabb& outer) {
-  return outer.lo.x() <= box.lo.x() && outer.lo.y() <= box.lo.y() && outer.lo.z() <= box.lo.z() &&
-         box.hi.x() <= outer.hi.x() && box.hi.y() <= outer.hi.y() && box.hi.z() <= outer.hi.z();
-}
-
 }  // namespace
 
 Detector::KeptPairs* Detector::kept_of(const CollisionBody& a, const CollisionBody& b) {
@@ -900,7 +905,7 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
       now.assign(padded.size(), Aabb{});
       for (std::size_t i = 0; i < tets.size(); ++i) {
         const Index j = slot[static_cast<std::size_t>(tets[i])];
-        if (j < 0 || !inside(boxes[i], padded[static_cast<std::size_t>(j)])) return false;
+        if (j < 0 || !padded[static_cast<std::size_t>(j)].contains(boxes[i])) return false;
         now[static_cast<std::size_t>(j)] = boxes[i];
       }
     }
@@ -943,12 +948,7 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
     for (std::size_t s = 0; s < 2; ++s) {
       for (const Index t : k->tets[s]) k->slot[s][static_cast<std::size_t>(t)] = -1;
       CollisionBody& body = *bodies[s];
-      if (options_.cluster_cull) {
-        body.tets_near(region, k->near);
-      } else {
-        k->near.resize(body.tets_.size());
-        std::iota(k->near.begin(), k->near.end(), Index{0});
-      }
+      gather_near(body, region, k->near);
       body.ensure_bounds(k->near, false);
       filter_tets(body, k->near, region, k->tets[s], k->boxes[s]);
       for (Aabb& box : k->boxes[s]) {
@@ -1026,16 +1026,8 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   // bounds and the filter below: a small tool in a large organ costs what the part of
   // the organ near the tool costs, not the whole organ.
   const Aabb cull = a.box().intersection(b.box());
-  const auto gather_near = [&](CollisionBody& body, std::vector<Index>& list) {
-    if (options_.cluster_cull) {
-      body.tets_near(cull, list);
-    } else {
-      list.resize(body.tets_.size());
-      std::iota(list.begin(), list.end(), Index{0});
-    }
-  };
-  gather_near(a, near_a_);
-  gather_near(b, near_b_);
+  gather_near(a, cull, near_a_);
+  gather_near(b, cull, near_b_);
   st.tets_a_near = near_a_.size();
   st.tets_b_near = near_b_.size();
   const bool spheres = kind == BroadPhaseKind::kGrid;
@@ -1064,40 +1056,39 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   const double rel = relative_tolerance();
 
   const bool from_kept = keep && candidates_from_kept(kept_pairs, a, b, cull, st);
-  if (!from_kept && full_tree && keep) b.prepare(kind);
-  BvhSide bvh;
-  const bool local_tree = !from_kept && !full_tree && kind == BroadPhaseKind::kBvh;
-  if (from_kept) {
-    // candidates_ made
-  } else if (full_tree) {
-    if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
-    for (std::size_t k = 0; k < subset_b_.size(); ++k)
-      box_slot_[subset_b_[k]] = static_cast<Index>(k);
-    bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
-  } else if (local_tree) {
-    // Any tree over these boxes answers the same (a refit makes every node box exact);
-    // only its shape, and so the query cost, depends on where the boxes were when it
-    // was built: rebuilt when the tets change, and every kLocalTreeRefits frames.
-    if (local_tree_body_ == &b && local_tree_refits_ < kLocalTreeRefits &&
-        local_tree_tets_ == subset_b_) {
-      local_tree_.refit(boxes_b_);
-      ++local_tree_refits_;
-      st.local_tree_refitted = true;
-    } else {
-      local_tree_.build(boxes_b_);
-      local_tree_body_ = &b;
-      local_tree_tets_ = subset_b_;
-      local_tree_refits_ = 0;
+  if (!from_kept) {
+    if (full_tree && keep) b.prepare(kind);  // (its bounds were made near the contact only)
+    BvhSide bvh;
+    if (full_tree) {
+      if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
+      for (std::size_t k = 0; k < subset_b_.size(); ++k)
+        box_slot_[subset_b_[k]] = static_cast<Index>(k);
+      bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
+    } else if (kind == BroadPhaseKind::kBvh) {
+      // A local tree. Any tree over these boxes answers the same (a refit makes every
+      // node box exact); only its shape, and so the query cost, depends on where the
+      // boxes were when it was built: rebuilt when the tets change, and every
+      // kLocalTreeRefits frames.
+      if (local_tree_body_ == &b && local_tree_refits_ < kLocalTreeRefits &&
+          local_tree_tets_ == subset_b_) {
+        local_tree_.refit(boxes_b_);
+        ++local_tree_refits_;
+        st.local_tree_refitted = true;
+      } else {
+        local_tree_.build(boxes_b_);
+        local_tree_body_ = &b;
+        local_tree_tets_ = subset_b_;
+        local_tree_refits_ = 0;
+      }
+      bvh.tree = &local_tree_;
+      bvh.tet_boxes = boxes_b_;
+      bvh.over_side = true;
     }
-    bvh.tree = &local_tree_;
-    bvh.tet_boxes = boxes_b_;
-    bvh.over_side = true;
-  }
-  if (!from_kept)
     broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
                       {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
-  if (full_tree && !from_kept)
-    for (const Index t : subset_b_) box_slot_[t] = -1;
+    if (full_tree)
+      for (const Index t : subset_b_) box_slot_[t] = -1;
+  }
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();
   st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();

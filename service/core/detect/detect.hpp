@@ -303,8 +303,8 @@ class Detector {
                        std::vector<IntrudingEdge>& out);
   void collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges);
   struct KeptPairs;
-  /// The kept pairs of (a, b), made empty when there are none (the least recently used
-  /// object pair's go when kKeptPairsHeld are held).
+  /// The kept pairs of (a, b); a new, empty entry when there are none (the least recently
+  /// used object pair's entry goes when kKeptPairsHeld are held).
   KeptPairs* kept_of(const CollisionBody& a, const CollisionBody& b);
   /// True while the kept pairs of `k` sit out (contact that moved too fast for them);
   /// counts the call.
@@ -313,6 +313,9 @@ class Detector {
   /// frame's boxes leave them), into candidates_; false when they cannot serve this call.
   bool candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBody& b, const Aabb& cull,
                             DetectStats& st);
+  /// The tets of `body` whose cluster box meets `region` (every tet without the cluster
+  /// cull), into `list`.
+  void gather_near(CollisionBody& body, const Aabb& region, std::vector<Index>& list) const;
   /// subset_x_ and boxes_x_ of `body`: its tets among `near` whose box meets `region`, and
   /// the box of each one's part inside it.
   void filter_tets(const CollisionBody& body, std::span<const Index> near, const Aabb& region,
@@ -339,8 +342,8 @@ class Detector {
   int local_tree_refits_ = 0;
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
-  std::vector<std::unique_ptr<KeptPairs>> kept_;  ///< per object pair, most recent first
-  std::uint64_t kept_calls_ = 0;                  ///< candidates_from_kept() calls
+  std::vector<std::unique_ptr<KeptPairs>> kept_;  ///< per object pair (KeptPairs::used: last use)
+  std::uint64_t kept_calls_ = 0;                  ///< kept_of() calls
   Geometry geom_a_, geom_b_;
   std::unique_ptr<ThreadGeometry> thread_geometry_;  ///< each thread's geometry of both bodies
   std::uint64_t geometry_stamp_ = 0;                 ///< detect() calls that built geometry
