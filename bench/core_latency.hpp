@@ -1,6 +1,6 @@
 // How long a cache line takes to go from one core to another and back, measured with two
 // threads pinned to the first two CPUs this process may use (docs/BENCHMARKS.md,
-// Detection -> "Step 7"). On a virtual machine the two vCPUs can sit on cores that share a cache or
+// "Machines"). On a virtual machine the two vCPUs can sit on cores that share a cache or
 // on cores that do not, and the host can move them while a benchmark runs: the same binary then
 // measures ~60 ns here one minute and ~320 ns the next. Every 2-thread result moves with it,
 // because every parallel loop hands data from one core to the other; the benchmarks report this

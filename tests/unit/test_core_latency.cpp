@@ -1,5 +1,5 @@
 // bench/core_latency.hpp: the core-to-core probe the benchmarks print beside their
-// 2-thread times (docs/BENCHMARKS.md, Detection -> "Step 7").
+// 2-thread times (docs/BENCHMARKS.md, "Machines").
 #include "core_latency.hpp"
 
 #include <gtest/gtest.h>

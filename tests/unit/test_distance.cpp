@@ -248,7 +248,7 @@ TEST(DepthOrdering, CffmVariantsOnTorusRankAsMeasured) {
 
 TEST(DepthOrdering, CffmNearStartsMeetsTheAccuracyTargetOnTheDemoMeshes) {
   // Issue 3's CFFM accuracy target: max error <= 0.5% of the object's largest depth and
-  // mean error <= 0.01% on the torus and the ball (docs/BENCHMARKS.md, "Targets";
+  // mean error <= 0.01% on the torus and the ball (docs/BENCHMARKS.md, "Depth maps";
   // measured 0.47% / 0.00044% and 0 / 0). The default kDescent misses it on the torus
   // (2.02% / 0.011%), so this also checks that kNearStarts is no worse than kDescent
   // on every demo mesh.

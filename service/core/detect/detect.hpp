@@ -279,7 +279,7 @@ class Detector {
   /// with their boxes. Their TetGeometry is built by each thread that needs it, in that
   /// thread's own copy (ThreadGeometry, detect.cpp): a tet's geometry is 816 bytes, and a
   /// shared copy written by one core and read by the other cost more than building it
-  /// twice when the two cores are far apart (docs/BENCHMARKS.md, "Step 11").
+  /// twice when the two cores are far apart (docs/DETECTION.md, "One frame of one pair").
   struct Geometry {
     std::vector<Index> tets;    ///< sorted
     std::vector<TetBox> boxes;  ///< per slot: make_tet_geometry()'s lo, hi, scale

@@ -42,7 +42,7 @@ struct TetGeometry {
   // back through normal(), edge() and arc(), so both see the same bits. Nothing is
   // stored twice: a tet's geometry is written every frame by each thread that tests it
   // (detection keeps one copy per thread: a cache line that moves between cores costs
-  // 30-320 ns here, docs/BENCHMARKS.md, Detection -> "Step 7" and "Step 11").
+  // 30-320 ns here, docs/BENCHMARKS.md, "Machines").
   Eigen::Vector3d lo, hi;            ///< bounding box, m
   double scale = 0.0;                ///< largest box extent, m
   bool flat = true;                  ///< 6|V| <= 32 eps scale^3 (or non-finite)

@@ -570,8 +570,8 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   // an object turning a little each frame saw a few nodes beyond every frame, each made its
   // own reference after the shift alone, and never enough to try a turn; the references,
   // turned by different amounts, then left no fit that held. The pawn turning 0.05 degrees
-  // a frame cost 7.5 ms a frame, and 0.07 ms turning 0.2 degrees (docs/BENCHMARKS.md,
-  // "Step 19").
+  // a frame cost 7.5 ms a frame, and 0.07 ms turning 0.2 degrees (docs/DETECTION.md,
+  // "Rigid motions in the shape check").
   const auto keep_fit_if_better = [&](std::size_t by_shift, const auto& count_beyond,
                                       std::size_t of) {
     const bool busy_by_shift = kBusyFraction * by_shift > of;
