@@ -513,6 +513,234 @@ TEST(Damping, ApproachStiffensSeparationSoftensNeverPulls) {
   }
 }
 
+// ---- Friction -----------------------------------------------------------------------
+
+/// Every node of X (the intruder) moves at vx, every node of Y at vy.
+void set_velocities(Single& s, const Vec3& vx, const Vec3& vy) {
+  s.x.velocities = vx.replicate(1, s.x.mesh.num_nodes());
+  s.y.velocities = vy.replicate(1, s.y.mesh.num_nodes());
+}
+
+ContactResult eval(const Single& s, bool segment, const ResponseOptions& o) {
+  return segment ? eval_segment(s, o) : eval_point(s, o);
+}
+
+/// The sum of the forces on the intruder's nodes (the contact's force on X).
+Vec3 on_intruder(const ContactResult& r) {
+  Vec3 f = Vec3::Zero();
+  for (int i = 0; i < r.intruder_nodes; ++i) f += r.force[i];
+  return f;
+}
+
+TEST(Friction, SlidingOpposesTheTangentialVelocityWithMuTimesThePush) {
+  for (const bool segment : {false, true}) {
+    std::mt19937 rng(segment ? 41 : 42);
+    int active = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+      RandomCase rc = random_case(rng, segment);
+      ResponseOptions o = paper();
+      o.stiffness = 1e3;
+      const ContactResult bare = eval(rc.s, segment, o);
+      if (!bare.active) continue;
+      ++active;
+      const Vec3 n = bare.normal;
+      // Sliding well above the threshold, with a normal part that friction ignores.
+      const Vec3 t = n.unitOrthogonal();
+      const Vec3 v = 2.0 * t + 0.3 * n;
+      set_velocities(rc.s, v, Vec3::Zero());
+      o.friction = 0.4;
+      o.friction_velocity = 1e-3;
+      const ContactResult r = eval(rc.s, segment, o);
+      ASSERT_TRUE(r.active);
+      // Without damping the push is the frictionless force; friction adds -mu |push| t
+      // at each point (the segment's two clip points move together here).
+      const Vec3 push = on_intruder(bare);
+      double push_sum = 0.0;
+      for (int i = 0; i < r.intruder_nodes; ++i) push_sum += r.push[i];
+      EXPECT_NEAR(push_sum, push.norm(), 1e-12 * push.norm()) << trial;
+      const Vec3 friction = on_intruder(r) - push;
+      EXPECT_NEAR((friction + 0.4 * push.norm() * t).norm(), 0.0, 1e-9 * push.norm()) << trial;
+      // The reaction: every contact still sums to zero.
+      Vec3 total = Vec3::Zero();
+      for (int i = 0; i < entries(r); ++i) total += r.force[i];
+      EXPECT_LE(total.norm(), 1e-12 * push.norm()) << trial;
+      // A target moving with the intruder: no relative motion, no friction.
+      set_velocities(rc.s, v, v);
+      const ContactResult same = eval(rc.s, segment, o);
+      EXPECT_LE((on_intruder(same) - push).norm(), 1e-12 * push.norm()) << trial;
+    }
+    EXPECT_GT(active, 20);
+  }
+}
+
+TEST(Friction, BelowTheThresholdItSticksViscouslyAndIsContinuous) {
+  std::mt19937 rng(43);
+  const RandomCase base = random_case(rng, false);
+  ResponseOptions o = paper();
+  o.stiffness = 1e3;
+  const ContactResult bare = eval_point(base.s, o);
+  ASSERT_TRUE(bare.active);
+  const Vec3 n = bare.normal, t = n.unitOrthogonal();
+  const double push = bare.force[0].norm();
+  o.friction = 0.5;
+  o.friction_velocity = 1e-3;
+  const auto magnitude = [&](double speed) {
+    RandomCase rc = base;
+    set_velocities(rc.s, speed * t, Vec3::Zero());
+    const ContactResult r = eval_point(rc.s, o);
+    const Vec3 f = r.force[0] - bare.force[0];
+    EXPECT_LE(f.dot(t), 0.0) << speed;  // opposes the motion
+    return f.norm();
+  };
+  EXPECT_EQ(magnitude(0.0), 0.0);
+  // f1(y) = 2y - y^2 below eps: a viscous stick of slope 2 mu push / eps at rest.
+  for (const double y : {1e-3, 0.1, 0.5, 0.9})
+    EXPECT_NEAR(magnitude(y * 1e-3), 0.5 * push * (2.0 * y - y * y), 1e-9 * push) << y;
+  EXPECT_NEAR(magnitude(1e-3), 0.5 * push, 1e-12 * push);
+  EXPECT_NEAR(magnitude(1e-3 * (1.0 - 1e-7)), 0.5 * push, 1e-9 * push);  // continuous at eps
+  EXPECT_NEAR(magnitude(10.0), 0.5 * push, 1e-12 * push);                // Coulomb's bound
+}
+
+TEST(Friction, NeverAddsEnergy) {
+  // The contact's power sum_i f_i . v_i over its nodes is at most the frictionless one:
+  // friction only takes energy out, in sliding and sticking, point and segment.
+  for (const bool segment : {false, true}) {
+    std::mt19937 rng(segment ? 44 : 45);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int trial = 0; trial < 60; ++trial) {
+      RandomCase rc = random_case(rng, segment);
+      rc.s.x.velocities = Positions(3, 4);
+      rc.s.y.velocities = Positions(3, 4);
+      const double scale = trial % 2 == 0 ? 1e-3 : 1.0;  // sticking, then sliding
+      for (int i = 0; i < 4; ++i) {
+        rc.s.x.velocities->col(i) = scale * Vec3(u(rng), u(rng), u(rng));
+        rc.s.y.velocities->col(i) = scale * Vec3(u(rng), u(rng), u(rng));
+      }
+      ResponseOptions o = paper();
+      o.stiffness = 1e3;
+      o.damping = trial % 3 == 0 ? 5.0 : 0.0;
+      const auto power = [&](const ContactResult& r) {
+        double p = 0.0;
+        for (int i = 0; i < entries(r); ++i) {
+          const auto& v = i < r.intruder_nodes ? *rc.s.x.velocities : *rc.s.y.velocities;
+          p += r.force[i].dot(v.col(r.node[i]));
+        }
+        return p;
+      };
+      const ContactResult bare = eval(rc.s, segment, o);
+      o.friction = 0.8;
+      o.friction_velocity = 1e-3;
+      const ContactResult r = eval(rc.s, segment, o);
+      if (!r.active) continue;
+      EXPECT_LE(power(r), power(bare) + 1e-12 * std::abs(power(bare))) << trial;
+    }
+  }
+}
+
+/// Finite differences of the forces under a velocity change shared by all nodes of X
+/// (or of Y) against the df/dv blocks: each entry's block is its row sum over its own
+/// object (the lumping of the stiffness blocks). Exact for the damping, whose force is
+/// affine in the velocity.
+void expect_damping_blocks_match_fd(Single s, bool segment, const ResponseOptions& o,
+                                    const std::string& what, double h = 1e-7) {
+  const ContactResult r = eval(s, segment, o);
+  ASSERT_TRUE(r.active) << what;
+  double scale = 0.0;
+  for (int i = 0; i < entries(r); ++i) scale = std::max(scale, r.damping[i].norm());
+  ASSERT_GT(scale, 0.0) << what;
+  for (const bool move_x : {true, false}) {
+    Single moved = s;
+    for (int c = 0; c < 3; ++c) {
+      Positions& v = move_x ? *moved.x.velocities : *moved.y.velocities;
+      const Positions& v0 = move_x ? *s.x.velocities : *s.y.velocities;
+      v = v0;
+      v.row(c).array() += h;
+      const ContactResult plus = eval(moved, segment, o);
+      v = v0;
+      v.row(c).array() -= h;
+      const ContactResult minus = eval(moved, segment, o);
+      for (int i = 0; i < entries(r); ++i) {
+        const bool on_x = i < r.intruder_nodes;
+        if (on_x != move_x) continue;  // a block is the row sum over its own object
+        const Vec3 fd = (plus.force[i] - minus.force[i]) / (2.0 * h);
+        EXPECT_NEAR((fd - r.damping[i].col(c)).norm(), 0.0, 1e-5 * scale)
+            << what << " entry " << i << " column " << c;
+      }
+    }
+  }
+}
+
+/// The blocks of a contact are symmetric and negative semi-definite.
+void expect_symmetric_negative(const ContactResult& r, const std::string& what) {
+  for (int i = 0; i < entries(r); ++i) {
+    const Mat3& d = r.damping[i];
+    EXPECT_NEAR((d - d.transpose()).norm(), 0.0, 1e-12 * d.norm()) << what;
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(d);
+    EXPECT_LE(eig.eigenvalues().maxCoeff(), 1e-9 * d.norm()) << what;
+  }
+}
+
+TEST(Friction, DampingBlocksAreTheSecantOfFrictionAndTheDerivativeOfDamping) {
+  // Friction's df/dv is the secant (lagged viscous) matrix D = -mu p g(|v_t|) P: with the
+  // intruder's nodes all at v and the target at rest, each entry's friction is D v (its
+  // reaction -D v); at rest it is the derivative. The damping's block is its derivative
+  // (finite differences). Sliding and sticking, point and segment.
+  std::mt19937 rng(46);
+  int checked = 0;
+  for (int trial = 0; trial < 12; ++trial)
+    for (const bool segment : {false, true}) {
+      RandomCase rc = random_case(rng, segment);
+      ResponseOptions o = paper();
+      o.stiffness = 1e3;
+      o.stiffness_mode = StiffnessMode::kLumped;
+      const ContactResult bare = eval(rc.s, segment, o);
+      if (!bare.active) continue;
+      ++checked;
+      const Vec3 n = bare.normal, t = n.unitOrthogonal(), b = n.cross(t);
+      const double speed = trial % 2 == 0 ? 4e-4 : 0.3;  // below and above eps = 1e-3
+      const Vec3 v = speed * (0.8 * t + 0.6 * b) + 0.2 * speed * n;
+      set_velocities(rc.s, v, Vec3::Zero());
+      o.friction = 0.6;
+      o.friction_velocity = 1e-3;
+      const std::string what = "trial " + std::to_string(trial) + (segment ? " segment" : " point");
+      const ContactResult r = eval(rc.s, segment, o);
+      ASSERT_TRUE(r.active) << what;
+      double fmax = 0.0;
+      for (int i = 0; i < entries(r); ++i) fmax = std::max(fmax, r.force[i].norm());
+      for (int i = 0; i < entries(r); ++i) {
+        const Vec3 friction = r.force[i] - bare.force[i];
+        const Vec3 secant = (i < r.intruder_nodes ? 1.0 : -1.0) * r.damping[i] * v;
+        EXPECT_NEAR((friction - secant).norm(), 0.0, 1e-12 * fmax) << what << " entry " << i;
+      }
+      expect_symmetric_negative(r, what + " friction");
+      // At rest the secant is the derivative: -2 mu p / eps on the tangent plane (a step
+      // of 1e-9 m/s: f1's curvature costs h / (2 eps) of relative error).
+      set_velocities(rc.s, Vec3::Zero(), Vec3::Zero());
+      expect_damping_blocks_match_fd(rc.s, segment, o, what + " friction at rest", 1e-9);
+      o.friction = 0.0;
+      o.damping = 3.0;
+      set_velocities(rc.s, -0.01 * n + speed * t, Vec3::Zero());  // approaching: damping on
+      expect_damping_blocks_match_fd(rc.s, segment, o, what + " damping");
+      expect_symmetric_negative(eval(rc.s, segment, o), what + " damping");
+    }
+  EXPECT_GT(checked, 12);
+}
+
+TEST(Friction, NoFrictionWithoutVelocitiesOrWithMuZero) {
+  std::mt19937 rng(47);
+  RandomCase rc = random_case(rng, false);
+  ResponseOptions o = paper();
+  o.friction = 0.7;
+  const ContactResult still = eval_point(rc.s, o);  // no velocities: at rest
+  o.friction = 0.0;
+  const ContactResult bare = eval_point(rc.s, o);
+  EXPECT_EQ(still.force[0], bare.force[0]);
+  set_velocities(rc.s, Vec3(1, 2, 3), Vec3::Zero());
+  const ContactResult moving = eval_point(rc.s, o);  // mu = 0: the same bits
+  EXPECT_EQ(moving.force[0], bare.force[0]);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(moving.force[1 + k], bare.force[1 + k]);
+}
+
 TEST(Options, PushPointOnlyLeavesTheTargetAlone) {
   std::mt19937 rng(8);
   const RandomCase rc = random_case(rng, false);

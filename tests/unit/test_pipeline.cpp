@@ -109,6 +109,24 @@ TEST(PairOptions, CombinesTheTwoObjectsParameters) {
   b.response = ResponseKind::kSegment;
   EXPECT_EQ(pair_options(a, b).kind, ResponseKind::kSegment);
   EXPECT_EQ(pair_options(b, a).kind, ResponseKind::kSegment);
+  // Friction: the geometric mean (a frictionless object makes the pair frictionless),
+  // the larger threshold (0 = the default), lumped blocks when either asks.
+  EXPECT_EQ(o.friction, 0.0);
+  EXPECT_EQ(o.friction_velocity, kDefaultFrictionVelocity);
+  EXPECT_EQ(o.stiffness_mode, StiffnessMode::kNone);
+  a.friction = 0.4;
+  EXPECT_EQ(pair_options(a, b).friction, 0.0);
+  b.friction = 0.9;
+  EXPECT_DOUBLE_EQ(pair_options(a, b).friction, 0.6);
+  b.friction_velocity = 1e-2;
+  EXPECT_EQ(pair_options(a, b).friction_velocity, 1e-2);
+  a.friction_velocity = 1e-5;
+  EXPECT_EQ(pair_options(a, b).friction_velocity, 1e-2);
+  b.friction_velocity = 0.0;
+  EXPECT_EQ(pair_options(a, b).friction_velocity, kDefaultFrictionVelocity);
+  a.blocks = true;
+  EXPECT_EQ(pair_options(a, b).stiffness_mode, StiffnessMode::kLumped);
+  EXPECT_EQ(pair_options(b, a).stiffness_mode, StiffnessMode::kLumped);
 }
 
 // A sliver is registered, and said once through the log facade (the daemon's sink is
@@ -769,6 +787,56 @@ TEST(Pipeline, DampingReadsTheStatesVelocities) {
   ASSERT_EQ(out.errors.size(), 1u);
   EXPECT_EQ(out.errors[0].object, "b");
   EXPECT_NE(out.errors[0].error.message.find("velocities"), std::string::npos);
+}
+
+/// Box b sliding along +x over box a (its bottom 5 mm into a's top), with friction mu on
+/// both; a at rest.
+FrameOutput sliding_frame(double mu, bool blocks_b, double vx = 0.5) {
+  TetMesh b = load_scaled("box.msh", kOne);
+  b.positions.colwise() += Eigen::Vector3d(0.05, 0.03, 0.295);
+  const TetMesh a = load_scaled("box.msh", kOne);
+  ObjectParams params;
+  params.response = ResponseKind::kPoint;
+  params.friction = mu;
+  ObjectParams params_b = params;
+  params_b.blocks = blocks_b;
+  Pipeline pipeline;
+  EXPECT_TRUE(pipeline.set_topology("a", 1, a, params).ok());
+  EXPECT_TRUE(pipeline.set_topology("b", 1, b, params_b).ok());
+  std::vector<FrameObjectInput> states = {state_of("a", a, 1), state_of("b", b, 1)};
+  states[1].velocities = Positions::Zero(3, b.num_nodes());
+  states[1].velocities.row(0).setConstant(vx);
+  FrameOutput out = pipeline.run_frame(0, states);
+  EXPECT_TRUE(out.errors.empty());
+  return out;
+}
+
+TEST(Pipeline, FrictionOpposesTheSlipAndTheReactionBalancesIt) {
+  const FrameOutput bare = sliding_frame(0.0, false);
+  const FrameOutput rubbed = sliding_frame(0.5, false);
+  const Eigen::Vector3d push = total(bare, "b"), on_b = total(rubbed, "b");
+  ASSERT_GT(push.z(), 0.0);
+  // Face on face: every push is along +z and every slip along +x, so the friction on b is
+  // -mu times the summed push, along -x; the normal part is unchanged.
+  EXPECT_NEAR(on_b.x() - push.x(), -0.5 * push.z(), 1e-9 * push.z());
+  EXPECT_NEAR(on_b.z(), push.z(), 1e-9 * push.z());
+  EXPECT_LE((on_b + total(rubbed, "a")).norm(), 1e-9 * push.z());  // action = reaction
+  // mu = 0 is frictionless to the bit, with or without velocities.
+  expect_same_forces(sliding_frame(0.0, false, 0.0), bare);
+  // The blocks go to the object that asked only: df/dx and df/dv for b, none for a.
+  const FrameOutput asked = sliding_frame(0.5, true);
+  const ObjectForces* fa = forces_of(asked, "a");
+  const ObjectForces* fb = forces_of(asked, "b");
+  ASSERT_TRUE(fa != nullptr && fb != nullptr);
+  EXPECT_TRUE(fa->stiffness.empty() && fa->damping.empty());
+  ASSERT_EQ(fb->stiffness.size(), fb->nodes.size());
+  ASSERT_EQ(fb->damping.size(), fb->nodes.size());
+  const ObjectForces* fb_unasked = forces_of(rubbed, "b");
+  ASSERT_TRUE(fb_unasked != nullptr);
+  EXPECT_EQ(fb->forces, fb_unasked->forces);  // asking changes no force
+  double slip_damping = 0.0;  // sliding: friction's df/dv is across the slip, not along it
+  for (const auto& d : fb->damping) slip_damping += d(1, 1);
+  EXPECT_LT(slip_damping, 0.0);
 }
 
 TEST(ContactDepth, FaceOnFaceWithALateralOffsetPushesAlongTheNormal) {

@@ -124,12 +124,16 @@ struct Pipeline::Impl {
 };
 
 Status Pipeline::Impl::check_params(const std::string& object, const ObjectParams& params) {
-  if (!(params.stiffness >= 0.0) || !std::isfinite(params.stiffness) || !(params.damping >= 0.0) ||
-      !std::isfinite(params.damping) || !(params.max_force >= 0.0) ||
-      !std::isfinite(params.max_force))
+  const auto bad = [](double v) { return !(v >= 0.0) || !std::isfinite(v); };
+  if (bad(params.stiffness) || bad(params.damping) || bad(params.max_force))
     return Error{
         ErrorCode::kInvalidArgument,
         "object '" + object + "': stiffness, damping and max_force must be finite and >= 0"};
+  if (bad(params.friction) || bad(params.friction_velocity))
+    return Error{ErrorCode::kInvalidArgument,
+                 "object '" + object + "': friction (" + std::to_string(params.friction) +
+                     ") and friction_velocity (" + std::to_string(params.friction_velocity) +
+                     ") must be finite and >= 0"};
   return {};
 }
 
@@ -145,6 +149,10 @@ ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
     o.kind = ResponseKind::kSegment;
   o.stiffness = std::min(a.stiffness, b.stiffness);
   o.damping = std::max(a.damping, b.damping);
+  o.friction = std::sqrt(a.friction * b.friction);
+  const auto eps = [](double v) { return v > 0.0 ? v : kDefaultFrictionVelocity; };
+  o.friction_velocity = std::max(eps(a.friction_velocity), eps(b.friction_velocity));
+  if (a.blocks || b.blocks) o.stiffness_mode = StiffnessMode::kLumped;
   return o;
 }
 
@@ -473,7 +481,12 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
   }
   for (auto& [name, forces] : totals) {
-    cap_object_forces(forces, objects.at(name)->params.max_force);
+    const ObjectParams& params = objects.at(name)->params;
+    if (!params.blocks && !impl_->config.compute_stiffness) {  // made for the other object
+      forces.stiffness.clear();
+      forces.damping.clear();
+    }
+    cap_object_forces(forces, params.max_force);
     forces.object = name;
     out.forces.push_back(std::move(forces));
   }

@@ -28,7 +28,9 @@ struct PipelineConfig {
   /// grid | hash | sap | bvh; empty: detection's default (bvh, chosen by bench_detect).
   /// The Pipeline constructor throws std::invalid_argument on any other name.
   std::string broad_phase;
-  bool compute_stiffness = false;  ///< also return 3x3 df/dx blocks
+  /// Return 3x3 df/dx and df/dv blocks for every object (ObjectParams::blocks asks per
+  /// object).
+  bool compute_stiffness = false;
   /// kAuto: segment response when the intruder's RMS contact-tet edge length exceeds this
   /// fraction of the contact extent (ResponseOptions::auto_threshold); 0 = default 0.25.
   double density_threshold = 0.0;
@@ -47,7 +49,7 @@ struct FrameObjectInput {
   std::string object;
   std::uint32_t topology_version = 0;
   Positions positions;     ///< 3 x n, metres, n = the registered topology's node count
-  Positions velocities{};  ///< 3 x n, m/s, or empty: the contact damping reads them
+  Positions velocities{};  ///< 3 x n, m/s, or empty: contact damping and friction read them
                            ///< (ObjectParams::damping; an object without them counts as
                            ///< at rest)
 };
@@ -105,8 +107,11 @@ struct FrameOutput {
 
 /// Options of a pair from the two objects' parameters: the kind asked by either object
 /// (an explicit kind beats kAuto, kSegment beats kPoint), the smaller stiffness (the
-/// softer object sets the contact), the larger damping. max_force stays per object
-/// (cap_object_forces). The other fields keep their defaults.
+/// softer object sets the contact), the larger damping, the friction coefficient
+/// sqrt(mu_a mu_b) (a frictionless object makes the pair frictionless), the larger
+/// friction velocity (0 counts as kDefaultFrictionVelocity), and lumped blocks when either
+/// object asks for them. max_force stays per object (cap_object_forces). The other fields
+/// keep their defaults.
 ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b);
 
 class Pipeline {

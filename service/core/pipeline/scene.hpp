@@ -19,6 +19,16 @@ struct ObjectParams {
                            ///< static objects are never tested against each other
   DepthMethod depth = DepthMethod::kCpfm;
   ResponseKind response = ResponseKind::kAuto;
+  /// Coulomb friction coefficient mu >= 0 (dimensionless); 0 = frictionless. A pair uses
+  /// sqrt(mu_a mu_b) (pair_options), so an object without friction makes its pairs
+  /// frictionless (docs/RESPONSE.md, "Friction").
+  double friction = 0.0;
+  /// Relative tangential speed below which friction is regularised (sticks viscously),
+  /// m/s, >= 0; 0 = kDefaultFrictionVelocity. A pair uses the larger of the two.
+  double friction_velocity = 0.0;
+  /// Return this object's 3x3 blocks df/dx and df/dv with its forces (PipelineConfig::
+  /// compute_stiffness returns them for every object).
+  bool blocks = false;
 };
 
 }  // namespace tc

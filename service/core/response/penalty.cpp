@@ -73,6 +73,33 @@ Vec3 velocity(const ResponseObject& o, Index node) {
   return v.allFinite() ? v : Vec3::Zero();
 }
 
+/// Smoothed Coulomb friction at one contact point (docs/RESPONSE.md, "Friction").
+struct Friction {
+  Vec3 force = Vec3::Zero();  ///< on the intruder, N
+  Mat3 dv = Mat3::Zero();     ///< the secant df/dv with the push held fixed, N s/m
+};
+
+/// The friction on an intruding point pushed with magnitude `push` (N) along the unit
+/// direction n, moving at v (m/s) relative to the penetrated object:
+///     F = -mu push f1(|v_t| / eps) v_t / |v_t|,  v_t = (I - n n^T) v,
+///     f1(y) = 2y - y^2 for y < 1, 1 beyond,
+/// C1 in v_t and a viscous stick (slope 2 mu push / eps) below eps; F.v <= 0: friction
+/// never adds energy. `dv` is the secant (lagged viscous) matrix
+///     D = -mu push g(|v_t|) P,  g(y) = f1(y / eps) / y,  P = I - n n^T,
+/// so that F = D v exactly: symmetric, negative semi-definite, equal to the derivative at
+/// rest, and never letting an implicit step reverse the slip (docs/RESPONSE.md).
+Friction friction_at(double mu, double eps, double push, const Vec3& n, const Vec3& v) {
+  Friction out;
+  const Mat3 tangent = Mat3::Identity() - n * n.transpose();
+  const Vec3 vt = tangent * v;
+  const double y = vt.norm();
+  if (!std::isfinite(y)) return out;
+  const double g = y >= eps ? 1.0 / y : (2.0 - y / eps) / eps;  // f1(y / eps) / y
+  out.dv = -mu * push * g * tangent;
+  out.force = out.dv * v;
+  return out;
+}
+
 /// The push-out direction of a contact at point x in tet t of the penetrated object,
 /// and, on the nearest-face path, the depth there.
 struct Direction {
@@ -342,18 +369,28 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
   const double w = by_length ? node_length_weight(intruder, c.node) : 1.0;
   const double ce = options.stiffness * w;  // N/m: elastic coefficient of this node
   double m = ce * depth;
-  if (options.damping > 0.0 && (intruder.velocities != nullptr || target.velocities != nullptr)) {
-    Vec3 v = velocity(intruder, c.node);
+  const bool moving = intruder.velocities != nullptr || target.velocities != nullptr;
+  const bool damped = options.damping > 0.0 && moving;
+  const bool rubbing = options.friction > 0.0 && moving;
+  Vec3 v = Vec3::Zero();  // v_rel: the node's velocity against the tet's at the node
+  if (damped || rubbing) {
+    v = velocity(intruder, c.node);
     for (int k = 0; k < 4; ++k) v -= beta[k] * velocity(target, tet[k]);
-    m -= options.damping * w * dir.n.dot(v);
   }
+  if (damped) m -= options.damping * w * dir.n.dot(v);
   if (!std::isfinite(m)) {
     r.skipped = true;
     return r;
   }
   if (!(m > 0.0)) return r;  // not in, or separating faster than the penalty pushes
   r.active = true;
-  const Vec3 f = m * dir.n;
+  Vec3 f = m * dir.n;
+  r.push[0] = f.norm();
+  Friction friction;
+  if (rubbing) {
+    friction = friction_at(options.friction, options.friction_velocity, r.push[0], dir.n, v);
+    f += friction.force;
+  }
   r.force[0] = f;
   r.target_nodes = options.push_point_only ? 0 : 4;
   for (int k = 0; k < r.target_nodes; ++k) {
@@ -364,6 +401,10 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
 
   const Vec3& n = dir.n;
   const Mat3 nn = n * n.transpose();
+  // df/dv, lumped as the kLumped stiffness: the tet's node k takes beta_k of it.
+  r.damping[0] = friction.dv;
+  if (damped) r.damping[0] -= options.damping * w * nn;
+  for (int k = 0; k < r.target_nodes; ++k) r.damping[1 + k] = beta[k] * r.damping[0];
   if (options.stiffness_mode == StiffnessMode::kLumped || dir.gradient.isZero()) {
     r.stiffness[0] = -ce * dir.gamma * nn;
     for (int k = 0; k < r.target_nodes; ++k) r.stiffness[1 + k] = beta[k] * r.stiffness[0];
@@ -447,14 +488,21 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   if (!(clipped > 0.0)) return r;
   const double k = options.stiffness;
   double m1 = k * d1, m2 = k * d2;  // penalty density at the clip points
-  if (options.damping > 0.0 && (intruder.velocities != nullptr || target.velocities != nullptr)) {
+  const bool moving = intruder.velocities != nullptr || target.velocities != nullptr;
+  const bool damped = options.damping > 0.0 && moving;
+  const bool rubbing = options.friction > 0.0 && moving;
+  Vec3 v1 = Vec3::Zero(), v2 = Vec3::Zero();  // relative velocities at the clip points
+  if (damped || rubbing) {
     const Vec3 va = velocity(intruder, edge[0]), vb = velocity(intruder, edge[1]);
-    Vec3 v1 = (1.0 - l1) * va + l1 * vb, v2 = (1.0 - l2) * va + l2 * vb;
+    v1 = (1.0 - l1) * va + l1 * vb;
+    v2 = (1.0 - l2) * va + l2 * vb;
     for (int j = 0; j < 4; ++j) {
       const Vec3 vt = velocity(target, tet[j]);
       v1 -= b1[j] * vt;
       v2 -= b2[j] * vt;
     }
+  }
+  if (damped) {
     m1 -= options.damping * dir.n.dot(v1);
     m2 -= options.damping * dir.n.dot(v2);
   }
@@ -462,14 +510,30 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
     r.skipped = true;
     return r;
   }
+  // Which densities the damping still moves (a clamped one does not).
+  const double live1 = damped && m1 > 0.0 ? 1.0 : 0.0;
+  const double live2 = damped && m2 > 0.0 ? 1.0 : 0.0;
   m1 = std::max(m1, 0.0);
   m2 = std::max(m2, 0.0);
   if (!(m1 > 0.0 || m2 > 0.0)) return r;
   r.active = true;
-  const Vec3 f1 = clipped * (2.0 * m1 + m2) / 6.0 * dir.n;
-  const Vec3 f2 = clipped * (m1 + 2.0 * m2) / 6.0 * dir.n;
+  Vec3 f1 = clipped * (2.0 * m1 + m2) / 6.0 * dir.n;
+  Vec3 f2 = clipped * (m1 + 2.0 * m2) / 6.0 * dir.n;
+  Friction fr1, fr2;
+  if (rubbing) {
+    fr1 = friction_at(options.friction, options.friction_velocity, f1.norm(), dir.n, v1);
+    fr2 = friction_at(options.friction, options.friction_velocity, f2.norm(), dir.n, v2);
+  }
   r.force[0] = (1.0 - l1) * f1 + (1.0 - l2) * f2;
   r.force[1] = l1 * f1 + l2 * f2;
+  r.push[0] = r.force[0].norm();
+  r.push[1] = r.force[1].norm();
+  if (rubbing) {
+    f1 += fr1.force;
+    f2 += fr2.force;
+    r.force[0] = (1.0 - l1) * f1 + (1.0 - l2) * f2;
+    r.force[1] = l1 * f1 + l2 * f2;
+  }
   r.target_nodes = options.push_point_only ? 0 : 4;
   for (int j = 0; j < r.target_nodes; ++j) {
     r.node[2 + j] = tet[j];
@@ -479,6 +543,13 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
 
   const Vec3& n = dir.n;
   const Mat3 nn = n * n.transpose();
+  // df/dv of the forces at the clip points under a velocity change shared by the
+  // intruder's nodes (row sums, as kLumped), then moved like the forces.
+  const Mat3 g1 = fr1.dv - options.damping * clipped * (2.0 * live1 + live2) / 6.0 * nn;
+  const Mat3 g2 = fr2.dv - options.damping * clipped * (live1 + 2.0 * live2) / 6.0 * nn;
+  r.damping[0] = (1.0 - l1) * g1 + (1.0 - l2) * g2;
+  r.damping[1] = l1 * g1 + l2 * g2;
+  for (int j = 0; j < r.target_nodes; ++j) r.damping[2 + j] = b1[j] * g1 + b2[j] * g2;
   const double kl = k * ell;
   if (options.stiffness_mode == StiffnessMode::kLumped || dir.gradient.isZero()) {
     const double scale = kl * dir.gamma;

@@ -73,6 +73,11 @@ enum class DepthEvaluation : std::uint8_t {
   kInterpolate,
 };
 
+/// The relative tangential speed below which friction is regularised when no object
+/// asks for another (ObjectParams::friction_velocity = 0), m/s: a body held by friction
+/// creeps at most at about this speed times tan(theta) / mu (docs/RESPONSE.md, "Friction").
+inline constexpr double kDefaultFrictionVelocity = 1e-3;
+
 /// Settings of the response of one object pair.
 struct ResponseOptions {
   ResponseKind kind = ResponseKind::kAuto;  ///< point, segment, or by mesh density
@@ -82,6 +87,11 @@ struct ResponseOptions {
   std::optional<std::array<ResponseKind, 2>> decided_kinds;
   double stiffness = 1e4;  ///< k >= 0; units per `measure`
   double damping = 0.0;    ///< c >= 0 on the penetration rate; units per `measure`
+  /// Coulomb coefficient mu >= 0: each contact's tangential force opposes the relative
+  /// tangential velocity with magnitude mu |normal push| f1(|v_t| / friction_velocity),
+  /// f1(y) = 2y - y^2 below 1, 1 above (smoothed Coulomb; docs/RESPONSE.md "Friction").
+  double friction = 0.0;
+  double friction_velocity = kDefaultFrictionVelocity;  ///< eps_v > 0, m/s
   ForceMeasure measure = ForceMeasure::kEdgeLength;
   StiffnessMode stiffness_mode = StiffnessMode::kNone;
   /// The paper's behaviour: push the intruding node(s) only, no reaction on the
@@ -149,6 +159,7 @@ struct ContactResult {
   ContactResult() {
     force.fill(Eigen::Vector3d::Zero());
     stiffness.fill(Eigen::Matrix3d::Zero());
+    damping.fill(Eigen::Matrix3d::Zero());
   }
   bool active = false;    ///< produced a non-zero force
   bool skipped = false;   ///< non-finite position, depth or weight: no force
@@ -158,8 +169,16 @@ struct ContactResult {
   int target_nodes = 0;    ///< 4 reactions, or 0 with push_point_only
   /// node[0 .. intruder_nodes): nodes of X; then target_nodes nodes of Y's tet.
   std::array<Index, 6> node{};
-  std::array<Eigen::Vector3d, 6> force;              ///< N, per node entry
-  std::array<Eigen::Matrix3d, 6> stiffness;          ///< df/dx, N/m, per node entry (if asked)
+  std::array<Eigen::Vector3d, 6> force;      ///< N, per node entry
+  std::array<Eigen::Matrix3d, 6> stiffness;  ///< df/dx, N/m, per node entry (if asked)
+  /// df/dv, N s/m, per node entry (with the stiffness blocks): the damping's and the
+  /// friction's derivatives with the normal push held fixed, lumped like kLumped (node k
+  /// of the penetrated tet gets beta_k times the intruder's). Symmetric, negative
+  /// semi-definite.
+  std::array<Eigen::Matrix3d, 6> damping;
+  /// Magnitude of the normal push on node[i] (i < intruder_nodes), N: the force without
+  /// its friction.
+  std::array<double, 2> push{};
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit push-out direction of X
   double depth = 0.0;                                ///< deepest penetration used, metres
 };
@@ -168,7 +187,9 @@ struct ContactResult {
 ///
 /// depth = sum_k beta_k d_k with the detection's barycentric weights beta (clamped to
 /// >= 0 and renormalised), n = -grad d / |grad d| of Y's linear depth in the tet,
-/// f = (k w depth - c w n.v_rel)^+ n on the node, -beta_k f on the tet's node k.
+/// f = (k w depth - c w n.v_rel)^+ n + friction on the node, -beta_k f on the tet's node k,
+/// v_rel = v_node - sum_k beta_k v_k; friction = -mu |push| f1(|v_t| / eps_v) v_t / |v_t|
+/// with v_t the tangential part of v_rel (ResponseOptions::friction).
 ///
 /// @param[in] intruder        X (positions, topology for the node weight, velocities).
 /// @param[in] target          Y (positions, tets, topology for fallbacks, depth, velocities).
@@ -189,7 +210,8 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
 /// moved to the edge ends with the weights of x = a + lambda (b - a):
 ///     f_a = (1 - l1) f1 + (1 - l2) f2,  f_b = l1 f1 + l2 f2,
 /// and the reactions -(beta_k(x1) f1 + beta_k(x2) f2) to the tet's nodes. This is the
-/// exact integral of the density against the edge's linear shape functions.
+/// exact integral of the density against the edge's linear shape functions. Friction
+/// /// acts at each clip point on its own push |f_i| with that point's relative velocity.
 ContactResult segment_contact(const ResponseObject& intruder, const ResponseObject& target,
                               const IntrudingEdge& c, const ResponseOptions& options,
                               const Eigen::Vector3d& pair_direction);

@@ -64,6 +64,9 @@ Status validate_options(const ResponseOptions& o) {
   const auto bad = [](double v) { return !std::isfinite(v) || v < 0.0; };
   if (bad(o.stiffness)) return invalid("response: stiffness must be finite and >= 0");
   if (bad(o.damping)) return invalid("response: damping must be finite and >= 0");
+  if (bad(o.friction)) return invalid("response: friction must be finite and >= 0");
+  if (!(o.friction_velocity > 0.0) || !std::isfinite(o.friction_velocity))
+    return invalid("response: friction_velocity must be finite and > 0");
   if (bad(o.auto_threshold)) return invalid("response: auto_threshold must be finite and >= 0");
   if (o.decided_kinds)
     for (const ResponseKind k : *o.decided_kinds)
@@ -233,18 +236,24 @@ void ResponseAccumulator::NodeSums::prepare(Index n, bool blocks) {
     force.resize(size, Vec3::Zero());
     used.resize(size, 0);
   }
-  if (blocks && stiffness.size() < force.size()) stiffness.resize(force.size(), Mat3::Zero());
+  if (blocks && stiffness.size() < force.size()) {
+    stiffness.resize(force.size(), Mat3::Zero());
+    damping.resize(force.size(), Mat3::Zero());
+  }
   touched.clear();
 }
 
-void ResponseAccumulator::NodeSums::add(Index node, const Vec3& f, const Mat3* k) {
+void ResponseAccumulator::NodeSums::add(Index node, const Vec3& f, const Mat3* k, const Mat3* d) {
   const auto i = static_cast<std::size_t>(node);
   if (used[i] == 0) {
     used[i] = 1;
     touched.push_back(node);
   }
   force[i] += f;
-  if (k != nullptr) stiffness[i] += *k;
+  if (k != nullptr) {
+    stiffness[i] += *k;
+    damping[i] += *d;
+  }
 }
 
 double ResponseAccumulator::NodeSums::magnitude() const {
@@ -257,7 +266,10 @@ void ResponseAccumulator::NodeSums::clear() {
   for (const Index node : touched) {
     const auto i = static_cast<std::size_t>(node);
     force[i].setZero();
-    if (i < stiffness.size()) stiffness[i].setZero();
+    if (i < stiffness.size()) {
+      stiffness[i].setZero();
+      damping[i].setZero();
+    }
     used[i] = 0;
   }
   touched.clear();
@@ -268,6 +280,7 @@ void ResponseAccumulator::NodeSums::extract(ObjectForces& out, bool blocks) {
   out.nodes = touched;
   out.forces.resize(touched.size());
   out.stiffness.resize(blocks ? touched.size() : 0);
+  out.damping.resize(blocks ? touched.size() : 0);
   for (std::size_t j = 0; j < touched.size(); ++j) {
     const auto i = static_cast<std::size_t>(touched[j]);
     out.forces[j] = force[i];
@@ -275,6 +288,8 @@ void ResponseAccumulator::NodeSums::extract(ObjectForces& out, bool blocks) {
     if (blocks) {
       out.stiffness[j] = stiffness[i];
       stiffness[i].setZero();
+      out.damping[j] = damping[i];
+      damping[i].setZero();
     }
     used[i] = 0;
   }
@@ -289,6 +304,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     f->nodes.clear();
     f->forces.clear();
     f->stiffness.clear();
+    f->damping.clear();
   }
   out.used_a_in_b = out.used_b_in_a = ResponseKind::kPoint;
   out.stats = ResponseStats{};
@@ -396,12 +412,14 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     st.max_depth = std::max(st.max_depth, r.depth);
     ++(&xs == &sums_a_ ? active_ab : active_ba);
     for (int i = 0; i < r.intruder_nodes; ++i) {
-      push_sum += r.force[i].norm();
-      xs.add(r.node[i], r.force[i], blocks ? &r.stiffness[i] : nullptr);
+      push_sum += r.push[i];
+      xs.add(r.node[i], r.force[i], blocks ? &r.stiffness[i] : nullptr,
+             blocks ? &r.damping[i] : nullptr);
     }
     for (int j = 0; j < r.target_nodes; ++j) {
       const int e = r.intruder_nodes + j;
-      ys.add(r.node[e], r.force[e], blocks ? &r.stiffness[e] : nullptr);
+      ys.add(r.node[e], r.force[e], blocks ? &r.stiffness[e] : nullptr,
+             blocks ? &r.damping[e] : nullptr);
     }
   };
   // Per-contact work, in parallel for large lists; the sums always run in list order.
@@ -522,10 +540,33 @@ void add_object_forces(ObjectForces& total, const ObjectForces& part) {
   merged.object = total.object;
   merged.nodes.reserve(total.nodes.size() + part.nodes.size());
   merged.forces.reserve(merged.nodes.capacity());
-  if (blocks) merged.stiffness.reserve(merged.nodes.capacity());
+  if (blocks) {
+    merged.stiffness.reserve(merged.nodes.capacity());
+    merged.damping.reserve(merged.nodes.capacity());
+  }
   std::size_t i = 0, j = 0;
-  const auto block_of = [](const ObjectForces& f, std::size_t k) {
-    return f.stiffness.empty() ? Mat3::Zero().eval() : f.stiffness[k];
+  const auto block_of = [](const std::vector<Mat3>& b, std::size_t k) {
+    return b.empty() ? Mat3::Zero().eval() : b[k];
+  };
+  // Appends entry k of `from` plus entry l of `add` for one node; a null side is absent.
+  const auto push = [&](Index node, const ObjectForces* from, std::size_t k,
+                        const ObjectForces* add, std::size_t l) {
+    merged.nodes.push_back(node);
+    if (from != nullptr && add != nullptr) {
+      merged.forces.push_back(from->forces[k] + add->forces[l]);
+      if (blocks) {
+        merged.stiffness.push_back(block_of(from->stiffness, k) + add->stiffness[l]);
+        merged.damping.push_back(block_of(from->damping, k) + add->damping[l]);
+      }
+      return;
+    }
+    const ObjectForces& f = from != nullptr ? *from : *add;
+    const std::size_t m = from != nullptr ? k : l;
+    merged.forces.push_back(f.forces[m]);
+    if (blocks) {
+      merged.stiffness.push_back(block_of(f.stiffness, m));
+      merged.damping.push_back(block_of(f.damping, m));
+    }
   };
   while (i < total.nodes.size() || j < part.nodes.size()) {
     const bool take_total =
@@ -533,19 +574,13 @@ void add_object_forces(ObjectForces& total, const ObjectForces& part) {
     const bool take_part =
         i == total.nodes.size() || (j < part.nodes.size() && part.nodes[j] < total.nodes[i]);
     if (take_total) {
-      merged.nodes.push_back(total.nodes[i]);
-      merged.forces.push_back(total.forces[i]);
-      if (blocks) merged.stiffness.push_back(block_of(total, i));
+      push(total.nodes[i], &total, i, nullptr, 0);
       ++i;
     } else if (take_part) {
-      merged.nodes.push_back(part.nodes[j]);
-      merged.forces.push_back(part.forces[j]);
-      if (blocks) merged.stiffness.push_back(part.stiffness[j]);
+      push(part.nodes[j], nullptr, 0, &part, j);
       ++j;
     } else {  // same node
-      merged.nodes.push_back(total.nodes[i]);
-      merged.forces.push_back(total.forces[i] + part.forces[j]);
-      if (blocks) merged.stiffness.push_back(block_of(total, i) + part.stiffness[j]);
+      push(total.nodes[i], &total, i, &part, j);
       ++i;
       ++j;
     }
@@ -563,9 +598,9 @@ std::size_t cap_object_forces(ObjectForces& forces, double max_force) {
     const double scale = max_force / norm;
     const Vec3 unit = f / norm;
     f = max_force * unit;
-    if (i < forces.stiffness.size())
-      forces.stiffness[i] =
-          (scale * (Mat3::Identity() - unit * unit.transpose()) * forces.stiffness[i]).eval();
+    const Mat3 project = scale * (Mat3::Identity() - unit * unit.transpose());
+    if (i < forces.stiffness.size()) forces.stiffness[i] = (project * forces.stiffness[i]).eval();
+    if (i < forces.damping.size()) forces.damping[i] = (project * forces.damping[i]).eval();
     ++capped;
   }
   return capped;

@@ -28,6 +28,8 @@ struct ObjectForces {
   std::vector<Index> nodes;                ///< sorted node indices (0-based, file order)
   std::vector<Eigen::Vector3d> forces;     ///< one per entry of nodes, N
   std::vector<Eigen::Matrix3d> stiffness;  ///< empty, or one df/dx block per entry, N/m
+  std::vector<Eigen::Matrix3d> damping;    ///< empty, or one df/dv block per entry, N s/m
+                                           ///< (present with the stiffness blocks)
 };
 
 /// Counts of one or more pair responses.
@@ -132,10 +134,13 @@ class ResponseAccumulator {
   struct NodeSums {
     std::vector<Eigen::Vector3d> force;
     std::vector<Eigen::Matrix3d> stiffness;
+    std::vector<Eigen::Matrix3d> damping;
     std::vector<std::uint8_t> used;
     std::vector<Index> touched;
     void prepare(Index n, bool blocks);
-    void add(Index node, const Eigen::Vector3d& f, const Eigen::Matrix3d* k);
+    /// k and d (df/dx, df/dv) both null or both set.
+    void add(Index node, const Eigen::Vector3d& f, const Eigen::Matrix3d* k,
+             const Eigen::Matrix3d* d);
     void extract(ObjectForces& out, bool blocks);
     void clear();                            ///< forgets the sums (buffers kept)
     [[nodiscard]] double magnitude() const;  ///< sum over nodes of |force|, N
@@ -151,12 +156,14 @@ Expected<PairResponse> compute_pair_response(const ResponseObject& a, const Resp
                                              const ResponseOptions& options);
 
 /// total += part, node by node (sorted merge; part's nodes sorted and unique). Blocks
-/// are summed when both carry them; a total without blocks takes none.
+/// (stiffness and damping) are summed when both carry them; a total without blocks takes
+/// none.
 void add_object_forces(ObjectForces& total, const ObjectForces& part);
 
 /// Caps each node's force magnitude at max_force (N; <= 0: no cap). A capped force is
-/// scaled to the cap and its block K becomes (max_force / |f|) (I - f^ f^T) K, the
-/// derivative of the capped force. A capped node breaks the zero-sum of its contacts.
+/// scaled to the cap and its blocks B (df/dx and df/dv) become (max_force / |f|)
+/// (I - f^ f^T) B, the derivatives of the capped force. A capped node breaks the zero-sum of its
+/// contacts.
 /// @return the number of capped nodes.
 std::size_t cap_object_forces(ObjectForces& forces, double max_force);
 
