@@ -294,6 +294,9 @@ struct Client::Impl {
     s.params.is_static = t.params.is_static;
     s.params.depth = static_cast<tetcollide_DepthMethod>(t.params.depth);
     s.params.response = static_cast<tetcollide_ResponseKind>(t.params.response);
+    s.params.friction = t.params.friction;
+    s.params.friction_velocity = t.params.friction_velocity;
+    s.params.blocks = t.params.blocks;
     // The write's timestamp comes back in the service's verdict: a verdict on an earlier
     // write of the same version (kept in the status history) is not mistaken for this one.
     const dds_time_t stamp = dds_time();
@@ -336,6 +339,7 @@ struct Client::Impl {
             f.nodes.assign(s->nodes._buffer, s->nodes._buffer + s->nodes._length);
             f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
             f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
+            f.damping.assign(s->damping._buffer, s->damping._buffer + s->damping._length);
             for (std::uint32_t k = 0; k < s->left_out._length; ++k)
               f.left_out.emplace_back(protocol::bounded_view(s->left_out._buffer[k]));
             auto& frame_answers = answers[s->frame];

@@ -151,6 +151,7 @@ struct PyObjectForces {
   py::array nodes;
   py::array forces;
   py::object stiffness;
+  py::object damping;
   std::int64_t state_frame = -1;
   std::uint64_t answer_id = 0;
   std::vector<std::string> left_out;
@@ -170,15 +171,17 @@ struct PyObjectForces {
     forces = whole ? owning_array(std::move(f.forces), {k, 3})
                    : owning_array(std::move(f.forces), {static_cast<py::ssize_t>(f.forces.size())});
     nodes = owning_array(std::move(f.nodes), {k});
-    // None: the service computes no blocks (pipeline.compute_stiffness off); an answer
-    // without contact has (0, 3, 3) blocks either way.
-    if (f.stiffness.empty() && k > 0)
-      stiffness = py::none();
-    else if (f.stiffness.size() == 9 * static_cast<std::size_t>(k))
-      stiffness = owning_array(std::move(f.stiffness), {k, 3, 3});
-    else
-      stiffness =
-          owning_array(std::move(f.stiffness), {static_cast<py::ssize_t>(f.stiffness.size())});
+    // None: no blocks asked (register(blocks=False), pipeline.compute_stiffness off) or,
+    // for damping, a service before protocol 3; an answer without contact has (0, 3, 3)
+    // blocks either way.
+    const auto blocks = [k](std::vector<double>&& b) -> py::object {
+      if (b.empty() && k > 0) return py::none();
+      if (b.size() == 9 * static_cast<std::size_t>(k)) return owning_array(std::move(b), {k, 3, 3});
+      const auto size = static_cast<py::ssize_t>(b.size());
+      return owning_array(std::move(b), {size});
+    };
+    stiffness = blocks(std::move(f.stiffness));
+    damping = blocks(std::move(f.damping));
   }
 };
 
@@ -260,26 +263,56 @@ class PyClient {
                                 const py::object& tets_obj, double stiffness, double damping,
                                 double max_force, bool is_static, const std::string& depth,
                                 const std::string& response, const py::object& node_ids_obj,
-                                std::uint32_t version) {
-    return register_cells(object, nodes_obj, tets_obj, "tets", 4, stiffness, damping, max_force,
-                          is_static, depth, response, node_ids_obj, version);
+                                std::uint32_t version, double friction, double friction_velocity,
+                                bool blocks) {
+    return register_cells(object, nodes_obj, tets_obj, "tets", 4,
+                          make_params(stiffness, damping, max_force, is_static, depth, response,
+                                      friction, friction_velocity, blocks),
+                          node_ids_obj, version);
   }
 
   std::uint32_t register_surface(const std::string& object, const py::object& nodes_obj,
                                  const py::object& triangles_obj, double stiffness, double damping,
                                  double max_force, bool is_static, const std::string& response,
-                                 const py::object& node_ids_obj, std::uint32_t version) {
+                                 const py::object& node_ids_obj, std::uint32_t version,
+                                 double friction, double friction_velocity, bool blocks) {
     // A surface has no depth map: the depth method is never used ("cpfm" is sent).
-    return register_cells(object, nodes_obj, triangles_obj, "triangles", 3, stiffness, damping,
-                          max_force, is_static, "cpfm", response, node_ids_obj, version);
+    return register_cells(object, nodes_obj, triangles_obj, "triangles", 3,
+                          make_params(stiffness, damping, max_force, is_static, "cpfm", response,
+                                      friction, friction_velocity, blocks),
+                          node_ids_obj, version);
+  }
+
+  /// Checked parameters of register() and register_surface() (ValueError on a bad one).
+  static tc::client::ObjectParams make_params(double stiffness, double damping, double max_force,
+                                              bool is_static, const std::string& depth,
+                                              const std::string& response, double friction,
+                                              double friction_velocity, bool blocks) {
+    for (const auto& [value, param] :
+         {std::pair{stiffness, "stiffness"}, std::pair{damping, "damping"},
+          std::pair{max_force, "max_force"}, std::pair{friction, "friction"},
+          std::pair{friction_velocity, "friction_velocity"}})
+      if (!std::isfinite(value) || value < 0.0)
+        raise_value(std::string(param) + ": expected a finite value >= 0, got " +
+                    float_text(value));
+    tc::client::ObjectParams params;
+    params.stiffness = stiffness;
+    params.damping = damping;
+    params.max_force = max_force;
+    params.is_static = is_static;
+    params.depth = parse_depth(depth);
+    params.response = parse_response(response);
+    params.friction = friction;
+    params.friction_velocity = friction_velocity;
+    params.blocks = blocks;
+    return params;
   }
 
   /// A tet object (`name` "tets", k = 4 nodes per cell) or a surface object
   /// ("triangles", k = 3): nodes (n, 3), cells (m, k) node indices in [0, n).
   std::uint32_t register_cells(const std::string& object, const py::object& nodes_obj,
                                const py::object& cells_obj, const std::string& cells_name, int k,
-                               double stiffness, double damping, double max_force, bool is_static,
-                               const std::string& depth, const std::string& response,
+                               const tc::client::ObjectParams& params,
                                const py::object& node_ids_obj, std::uint32_t version) {
     auto c = get();
     if (object.empty()) raise_value("object: expected a non-empty name");
@@ -321,25 +354,12 @@ class PyClient {
       const I64 ids = I64::ensure(ids_any);
       mesh.node_ids.assign(ids.data(), ids.data() + n);
     }
-    for (const auto& [value, param] :
-         {std::pair{stiffness, "stiffness"}, std::pair{damping, "damping"},
-          std::pair{max_force, "max_force"}})
-      if (!std::isfinite(value) || value < 0.0)
-        raise_value(std::string(param) + ": expected a finite value >= 0, got " +
-                    float_text(value));
-    tc::client::ObjectParams params;
-    params.stiffness = stiffness;
-    params.damping = damping;
-    params.max_force = max_force;
-    params.is_static = is_static;
-    params.depth = parse_depth(depth);
-    params.response = parse_response(response);
     std::uint32_t sent = 0;
     {
       py::gil_scoped_release release;
       sent = c->register_object(object, mesh, params, version);
     }
-    objects_[object] = {n, is_static};
+    objects_[object] = {n, params.is_static};
     return sent;
   }
 
@@ -624,10 +644,12 @@ malformed.)");
           "status_name", [](const PyObjectForces& f) { return tc::client::status_name(f.status); })
       .def_readonly("nodes", &PyObjectForces::nodes, "int32 (k,): sorted node indices")
       .def_readonly("forces", &PyObjectForces::forces, "float64 (k, 3): forces on those nodes, N")
-      .def_readonly(
-          "stiffness", &PyObjectForces::stiffness,
-          "float64 (k, 3, 3): row-major df/dx blocks, N/m; None when the service computes none "
-          "(pipeline.compute_stiffness off) and k > 0")
+      .def_readonly("stiffness", &PyObjectForces::stiffness,
+                    "float64 (k, 3, 3): row-major df/dx blocks, N/m; None when none were asked "
+                    "(register(blocks=False), pipeline.compute_stiffness off) and k > 0")
+      .def_readonly("damping", &PyObjectForces::damping,
+                    "float64 (k, 3, 3): row-major df/dv blocks (contact damping and friction), "
+                    "N s/m; present with stiffness (protocol 3), else None when k > 0")
       .def_readonly("state_frame", &PyObjectForces::state_frame,
                     "frame of this object's state the forces come from (-1: rest positions)")
       .def_readonly("answer_id", &PyObjectForces::answer_id)
@@ -772,6 +794,7 @@ objects). One thread per Client; every wait releases the GIL.)")
            py::arg("tets"), py::kw_only(), py::arg("stiffness") = 1e4, py::arg("damping") = 0.0,
            py::arg("max_force") = 0.0, py::arg("static") = false, py::arg("depth") = "cpfm",
            py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
+           py::arg("friction") = 0.0, py::arg("friction_velocity") = 0.0, py::arg("blocks") = false,
            R"(Publishes (or, after a cut, replaces) an object's topology; returns the version sent.
 
   nodes      (n, 3) float64 rest positions, metres
@@ -781,6 +804,9 @@ objects). One thread per Client; every wait releases the GIL.)")
   depth      'cpfm' | 'cffm' | 'exact';  response: 'point' | 'segment' | 'auto'
   node_ids   (n,) integer ids reported back only, or None
   version    0 = the previous version + 1 (1 the first time)
+  friction   Coulomb coefficient mu >= 0 (a pair uses sqrt(mu_a mu_b); 0 = none)
+  friction_velocity  m/s below which friction sticks viscously (0 = service default 1e-3)
+  blocks     answers carry df/dx (stiffness) and df/dv (damping) blocks (protocol 3)
 
 The topology is copied once into the sample (the C++ API takes vectors). The service's
 verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arguments.)")
@@ -788,6 +814,7 @@ verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arg
            py::arg("triangles"), py::kw_only(), py::arg("stiffness") = 1e4,
            py::arg("damping") = 0.0, py::arg("max_force") = 0.0, py::arg("static") = false,
            py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
+           py::arg("friction") = 0.0, py::arg("friction_velocity") = 0.0, py::arg("blocks") = false,
            R"(Publishes (or replaces) a surface object's topology (docs/SURFACES.md, protocol 2).
 
   nodes      (n, 3) float64 rest positions, metres

@@ -59,6 +59,9 @@ Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::T
         r.params.is_static = s->params.is_static;
         r.params.depth = static_cast<client::DepthMethod>(s->params.depth);
         r.params.response = static_cast<client::ResponseKind>(s->params.response);
+        r.params.friction = s->params.friction;
+        r.params.friction_velocity = s->params.friction_velocity;
+        r.params.blocks = s->params.blocks;
         st = writer.write(r);
         ++summary.topologies;
       }
@@ -97,6 +100,7 @@ Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::T
       r.nodes = to_vector(s->nodes._buffer, s->nodes._length);
       r.forces = to_vector(s->forces._buffer, s->forces._length);
       r.stiffness = to_vector(s->stiffness._buffer, s->stiffness._length);
+      r.damping = to_vector(s->damping._buffer, s->damping._length);
       st = writer.write(r);
       ++summary.forces;
       break;

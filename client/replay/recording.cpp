@@ -101,7 +101,10 @@ json encode(const TopologyRecord& r) {
               {"max_force", r.params.max_force},
               {"is_static", r.params.is_static},
               {"depth", client::depth_method_name(r.params.depth)},
-              {"response", client::response_kind_name(r.params.response)}}}};
+              {"response", client::response_kind_name(r.params.response)},
+              {"friction", r.params.friction},
+              {"friction_velocity", r.params.friction_velocity},
+              {"blocks", r.params.blocks}}}};
   // Only surface objects carry triangles: tet recordings stay as they were.
   if (!r.mesh.triangles.empty()) j["triangles"] = r.mesh.triangles;
   return j;
@@ -123,16 +126,19 @@ json encode(const StateRecord& r) {
 }
 
 json encode(const ForcesRecord& r) {
-  return {{"type", "forces"},
-          {"t", r.t},
-          {"scene", r.scene},
-          {"object", r.object},
-          {"frame", r.frame},
-          {"topology_version", r.topology_version},
-          {"status", r.status},
-          {"nodes", r.nodes},
-          {"forces", doubles(r.forces)},
-          {"stiffness", doubles(r.stiffness)}};
+  json j = {{"type", "forces"},
+            {"t", r.t},
+            {"scene", r.scene},
+            {"object", r.object},
+            {"frame", r.frame},
+            {"topology_version", r.topology_version},
+            {"status", r.status},
+            {"nodes", r.nodes},
+            {"forces", doubles(r.forces)},
+            {"stiffness", doubles(r.stiffness)}};
+  // Only answers with df/dv blocks (protocol 3) carry them: other records stay as they were.
+  if (!r.damping.empty()) j["damping"] = doubles(r.damping);
+  return j;
 }
 
 json encode(const StatusRecord& r) {
@@ -173,6 +179,11 @@ Record decode(const json& j) {
     r.params.is_static = p.at("is_static").get<bool>();
     r.params.depth = depth_of(p.at("depth").get<std::string>());
     r.params.response = response_of(p.at("response").get<std::string>());
+    // Protocol 3's parameters; recordings made before them have none (their defaults).
+    if (p.contains("friction")) r.params.friction = p.at("friction").get<double>();
+    if (p.contains("friction_velocity"))
+      r.params.friction_velocity = p.at("friction_velocity").get<double>();
+    if (p.contains("blocks")) r.params.blocks = p.at("blocks").get<bool>();
     return r;
   }
   if (type == "remove") {
@@ -200,6 +211,7 @@ Record decode(const json& j) {
     r.nodes = integers<std::int32_t>(j.at("nodes"), "nodes");
     r.forces = read_doubles(j.at("forces"));
     r.stiffness = read_doubles(j.at("stiffness"));
+    if (j.contains("damping")) r.damping = read_doubles(j.at("damping"));
     return r;
   }
   if (type == "status") {

@@ -55,6 +55,7 @@ struct ForcesRecord {
   std::vector<std::int32_t> nodes;
   std::vector<double> forces;
   std::vector<double> stiffness;
+  std::vector<double> damping;  ///< df/dv blocks (protocol 3); absent in older recordings
 };
 
 struct StatusRecord {

@@ -136,6 +136,7 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   protocol::borrow(s.nodes, const_cast<Index*>(m.nodes.data()), m.nodes.size());
   protocol::borrow(s.forces, const_cast<double*>(m.forces.data()), m.forces.size());
   protocol::borrow(s.stiffness, const_cast<double*>(m.stiffness.data()), m.stiffness.size());
+  protocol::borrow(s.damping, const_cast<double*>(m.damping.data()), m.damping.size());
   // One wire name per left-out object; the names were checked on input (at most
   // MAX_OBJECT_NAME bytes), so none is cut here.
   std::vector<WireObjectName> left_out(m.left_out.size());

@@ -41,11 +41,15 @@ std::uint64_t content_hash(const TopologyView& t) {
   h = hash_bytes(h, t.rest_positions);
   h = hash_bytes(h, t.tets);
   h = hash_bytes(h, t.triangles);
-  const std::array<double, 3> numbers{t.params.stiffness, t.params.damping, t.params.max_force};
+  const std::array<double, 5> numbers{t.params.stiffness, t.params.damping, t.params.max_force,
+                                      t.params.friction, t.params.friction_velocity};
   h = hash_bytes(h, std::span<const double>(numbers));
-  const std::array<std::int64_t, 3> choices{t.params.is_static ? 1 : 0,
+  const std::array<std::int64_t, 6> choices{t.params.is_static ? 1 : 0,
                                             static_cast<std::int64_t>(t.params.depth),
-                                            static_cast<std::int64_t>(t.params.response)};
+                                            static_cast<std::int64_t>(t.params.response),
+                                            t.params.blocks ? 1 : 0,
+                                            t.params.contacts ? 1 : 0,
+                                            t.params.self_contact ? 1 : 0};
   return hash_bytes(h, std::span<const std::int64_t>(choices));
 }
 

@@ -55,6 +55,11 @@ TopologyView view_of(const tetcollide_MeshTopology& s) noexcept {
   v.params.is_static = s.params.is_static;
   v.params.depth = static_cast<std::int64_t>(s.params.depth);
   v.params.response = static_cast<std::int64_t>(s.params.response);
+  v.params.friction = s.params.friction;
+  v.params.friction_velocity = s.params.friction_velocity;
+  v.params.blocks = s.params.blocks;
+  v.params.contacts = s.params.contacts;
+  v.params.self_contact = s.params.self_contact;
   return v;
 }
 
@@ -182,6 +187,19 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   if (p.response < tetcollide_RESPONSE_POINT || p.response > tetcollide_RESPONSE_AUTO)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "params.response " + std::to_string(p.response) + " is not a ResponseKind");
+  if (!std::isfinite(p.friction) || p.friction < 0.0)
+    return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
+                "params.friction must be finite and >= 0");
+  if (!std::isfinite(p.friction_velocity) || p.friction_velocity < 0.0)
+    return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
+                "params.friction_velocity must be finite and >= 0");
+  if (p.contacts)
+    return fail(ErrorCode::kUnsupported, t.scene, t.object,
+                "params.contacts: this service does not send contacts yet (docs/PROTOCOL.md)");
+  if (p.self_contact)
+    return fail(ErrorCode::kUnsupported, t.scene, t.object,
+                "params.self_contact: this service does not compute self-contact yet "
+                "(docs/PROTOCOL.md)");
   return {};
 }
 
@@ -258,6 +276,9 @@ ObjectParams to_params(const WireParams& p) {
   out.damping = p.damping;
   out.max_force = p.max_force;
   out.is_static = p.is_static;
+  out.friction = p.friction;
+  out.friction_velocity = p.friction_velocity;
+  out.blocks = p.blocks;
   switch (p.depth) {
     case tetcollide_DEPTH_CFFM:
       out.depth = DepthMethod::kCffm;

@@ -26,6 +26,12 @@ struct WireParams {
   bool is_static = false;
   std::int64_t depth = 0;
   std::int64_t response = 0;
+  // Version 3 (0 / false from version-2 clients).
+  double friction = 0.0;
+  double friction_velocity = 0.0;
+  bool blocks = false;
+  bool contacts = false;
+  bool self_contact = false;
 };
 
 /// A MeshTopology sample.

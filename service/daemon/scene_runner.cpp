@@ -13,6 +13,16 @@
 namespace tc::daemon {
 namespace {
 
+/// The 3x3 blocks as 9 row-major doubles each, into `rows` (reused).
+std::span<const double> row_major(const std::vector<Eigen::Matrix3d>& blocks,
+                                  std::vector<double>& rows) {
+  rows.resize(9 * blocks.size());
+  for (std::size_t k = 0; k < blocks.size(); ++k)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) rows[9 * k + 3 * r + c] = blocks[k](r, c);
+  return rows;
+}
+
 static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double),
               "ObjectForces::forces must be contiguous xyz triples");
 
@@ -294,6 +304,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     msg.nodes = {};
     msg.forces = {};
     msg.stiffness = {};
+    msg.damping = {};
     // Rejected answers carry no forces, no computation id and no left-out list.
     const bool ok = msg.status == tetcollide_STATUS_OK;
     msg.answer_id = ok ? answer_id : 0;
@@ -304,11 +315,8 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
       msg.nodes = f->nodes;
       msg.forces = {reinterpret_cast<const double*>(f->forces.data()), 3 * f->forces.size()};
       if (f->stiffness.size() == f->nodes.size()) {
-        stiffness_rows_.resize(9 * f->stiffness.size());
-        for (std::size_t k = 0; k < f->stiffness.size(); ++k)
-          for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) stiffness_rows_[9 * k + 3 * r + c] = f->stiffness[k](r, c);
-        msg.stiffness = stiffness_rows_;
+        msg.stiffness = row_major(f->stiffness, stiffness_rows_);
+        msg.damping = row_major(f->damping, damping_rows_);
       }
     }
     outbox_.publish_forces(msg);

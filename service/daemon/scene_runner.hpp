@@ -102,6 +102,7 @@ class SceneRunner {
   /// object -> frame of the newest state the pipeline used (absent: rest positions)
   std::map<std::string, std::int64_t, std::less<>> state_frame_;
   std::vector<double> stiffness_rows_;  ///< reused per object
+  std::vector<double> damping_rows_;    ///< reused per object
 
   // Periodic timing summary.
   std::chrono::duration<double> summary_period_;

@@ -80,6 +80,16 @@ struct ObjectParams {
   bool is_static = false;  ///< never moves; the service does not wait for its states
   DepthMethod depth = DepthMethod::kCpfm;
   ResponseKind response = ResponseKind::kAuto;
+  // Protocol version 3 (a version-2 service ignores them: it sends no friction and no
+  // blocks unless its pipeline.compute_stiffness is set).
+  /// Coulomb friction coefficient mu >= 0; a pair uses sqrt(mu_a mu_b); 0 = frictionless.
+  double friction = 0.0;
+  /// Relative tangential speed below which friction is regularised (a viscous stick),
+  /// m/s; 0 = the service's default, 1e-3 m/s (docs/RESPONSE.md "Friction").
+  double friction_velocity = 0.0;
+  /// Answers carry this object's df/dx (`stiffness`) and df/dv (`damping`) blocks, for an
+  /// implicit integrator.
+  bool blocks = false;
 };
 
 /// A tetrahedral mesh as flat arrays.
@@ -110,6 +120,9 @@ struct ObjectForces {
   std::vector<std::int32_t> nodes;  ///< k sorted node indices
   std::vector<double> forces;       ///< 3k, newtons
   std::vector<double> stiffness;    ///< 9k row-major df/dx blocks (N/m), or empty
+  /// 9k row-major df/dv blocks (N s/m): the contact damping's and friction's; present
+  /// with `stiffness` (protocol version 3; empty from older services).
+  std::vector<double> damping;
   /// Frame of this object's state the forces were computed from (== frame for answers
   /// this client waits for; -1: rest positions). See ContactForces.state_frame.
   std::int64_t state_frame = -1;
