@@ -1,7 +1,7 @@
 // `tetcollide respond FILE_A FILE_B [--scale-a SX SY SZ] [--scale-b SX SY SZ]
 //  [--turn-b AX AY AZ DEG] [--spin-b DEG] [--move-b DX DY DZ] --response point|segment|auto
 //  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--lazy local|whole]
-//  [--stiffness K]
+//  [--stiffness K] [--friction MU [--friction-velocity EPS]] [--velocity-b VX VY VZ]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
 // meshes, B optionally turned about its box's centre (after --scale-b) and translated.
@@ -11,6 +11,8 @@
 // or a .msh with triangles and no tets; docs/SURFACES.md), not both. --contacts lists the point
 // contacts with the depth and direction their forces used; --exact-check compares those depths with
 // the exact distance of each node to the other object's boundary (docs/RESPONSE.md).
+// --velocity-b moves every node of B at that velocity (A at rest): the contact damping and,
+// with --friction, Coulomb friction read it; friction is in the totals and --forces.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -38,6 +40,9 @@ struct RespondArgs {
   std::string depth = "cpfm";
   std::string broad;
   double stiffness = 1e4;
+  double friction = 0.0;
+  double friction_velocity = 0.0;
+  std::vector<double> velocity_b;
   int repeat = 20;
   std::string forces_csv;
   std::string contacts_csv;
@@ -112,6 +117,8 @@ int run_respond(const RespondArgs& args) {
   const std::string kind_a = kind_of(*a), kind_b = kind_of(*b);
   ObjectParams params;
   params.stiffness = args.stiffness;
+  params.friction = args.friction;
+  params.friction_velocity = args.friction_velocity;
   // --response and --depth are checked by CLI11 (IsMember): both names parse.
   params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
   params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
@@ -128,6 +135,12 @@ int run_respond(const RespondArgs& args) {
   states[0].positions = positions_of(*a);
   states[1].object = "b";
   states[1].positions = positions_of(*b);
+  if (args.velocity_b.size() == 3) {
+    const Eigen::Vector3d v(args.velocity_b[0], args.velocity_b[1], args.velocity_b[2]);
+    if (!v.allFinite())
+      return report_error("--velocity-b: the velocity must be finite", kExitUsage);
+    states[1].velocities = v.replicate(1, states[1].positions.cols());
+  }
   const std::vector<std::int64_t> ids_a = node_ids_of(*a), ids_b = node_ids_of(*b);
   if (Status st = register_object(pipeline, "a", std::move(*a), params, args.file_a); !st)
     return report_error(st.error());
@@ -140,7 +153,10 @@ int run_respond(const RespondArgs& args) {
   for (int r = 0; r < std::max(1, args.repeat); ++r) {
     // As in the daemon, the states are made for the frame and the pipeline takes their
     // matrices (run_frame_taking): refilled here, outside the frame's time.
-    for (std::size_t i = 0; i < states.size(); ++i) states[i].positions = sent[i].positions;
+    for (std::size_t i = 0; i < states.size(); ++i) {
+      states[i].positions = sent[i].positions;
+      states[i].velocities = sent[i].velocities;
+    }
     if (args.spin_b != 0.0 && r > 0) {
       std::vector<double> spin = {0.0, 0.0, 1.0, args.spin_b * r};
       if (!args.turn_b.empty()) std::copy_n(args.turn_b.begin(), 3, spin.begin());
@@ -283,6 +299,16 @@ void add_respond_command(CLI::App& app, Context& ctx) {
       ->check(CLI::IsMember({"grid", "hash", "sap", "bvh"}));
   cmd->add_option("--stiffness", args->stiffness, "Penalty stiffness k (N/m^2)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--friction", args->friction,
+                  "Coulomb friction coefficient mu of both objects (the pair's is mu)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--friction-velocity", args->friction_velocity,
+                  "Tangential speed below which friction sticks viscously, m/s (0: 1e-3)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--velocity-b", args->velocity_b,
+                  "Every node of b moves at VX VY VZ (m/s); a is at rest")
+      ->expected(3)
+      ->type_name("VX VY VZ");
   cmd->add_option("--repeat", args->repeat, "Frames to time (median reported)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--forces", args->forces_csv, "Write object,node_id,fx,fy,fz CSV");
