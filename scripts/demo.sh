@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The main job (run by `make demo` after building tetcollide and tetcollided): starts
-# tetcollided in the background on its embedded defaults plus the contact stiffness
-# blocks the demo's implicit integrator needs (pipeline.compute_stiffness: true;
-# loopback-only DDS, a domain of its own), runs the torus-on-box scene against it with
+# tetcollided in the background on its embedded defaults (loopback-only DDS, a domain of
+# its own; the demo asks for the contact blocks its implicit integrator needs per object,
+# ObjectParams.blocks), runs the torus-on-box scene against it with
 # `tetcollide demo`, prints where the outputs are and stops the daemon (also on error or
 # Ctrl-C).
 #   scripts/demo.sh [extra `tetcollide demo` flags, e.g. --frames 400]
@@ -18,13 +18,11 @@ export CYCLONEDDS_URI="file://$PWD/config/cyclonedds.xml"
 log=out/tetcollided.log
 config=out/tetcollided.yaml
 cat >"$config" <<'YAML'
-# Written by scripts/demo.sh: the embedded defaults plus the 3x3 contact stiffness blocks
-# (the demo integrates contact implicitly with them; docs/DEMO.md).
+# Written by scripts/demo.sh: the embedded defaults. The demo asks for the 3x3 contact
+# blocks of the objects it integrates implicitly (ObjectParams.blocks; docs/DEMO.md).
 version: 1
-pipeline:
-  compute_stiffness: true
 YAML
-echo "== starting tetcollided ($config: embedded defaults + stiffness blocks, domain $domain, log $log)"
+echo "== starting tetcollided ($config: embedded defaults, domain $domain, log $log)"
 "$bin/tetcollided" --config "$config" --domain "$domain" >"$log" 2>&1 &
 daemon=$!
 stop_daemon() {

@@ -24,6 +24,7 @@
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
 #include "demo_support.hpp"
+#include "friction_check.hpp"
 #include "penetration.hpp"
 #include "recording.hpp"
 #include "render.hpp"
@@ -76,9 +77,15 @@ class SignalScope {
   struct sigaction old_term_ {};
 };
 
-client::ObjectParams to_params(const sim::ObjectSpec& o) {
+/// An object's parameters for the service. Blocks (df/dx, df/dv) are asked for the
+/// objects the simulator integrates implicitly: every moving object of an implicit scene
+/// and every shell; static objects and explicit bodies do not pay for them.
+client::ObjectParams to_params(const sim::ObjectSpec& o, const sim::SceneSpec& scene) {
   client::ObjectParams p;
   p.stiffness = o.contact.stiffness;
+  p.friction = o.contact.friction;
+  p.friction_velocity = o.contact.friction_velocity;
+  p.blocks = !o.is_static && (o.shell.has_value() || scene.integrator == "implicit");
   p.damping = o.contact.damping;
   p.max_force = o.contact.max_force;
   p.is_static = o.is_static;
@@ -139,8 +146,12 @@ class DdsContactService final : public sim::ContactService {
     for (auto& st : c_.take_frame_stats()) stats[st.frame] = st;
     std::map<std::string, sim::ContactAnswer> result;
     for (auto& o : answer->objects)
-      result[o.object] = {o.status, client::status_name(o.status), std::move(o.nodes),
-                          std::move(o.forces), std::move(o.stiffness)};
+      result[o.object] = {o.status,
+                          client::status_name(o.status),
+                          std::move(o.nodes),
+                          std::move(o.forces),
+                          std::move(o.stiffness),
+                          std::move(o.damping)};
     return result;
   }
 
@@ -298,6 +309,7 @@ struct RunReport {
   const nlohmann::json& versions;
   const std::vector<std::string>& failures;
   bool interrupted;
+  const std::optional<sim::FrictionCheckResult>& check;
 };
 
 /// summary.json (docs/DEMO.md, "summary.json keys").
@@ -359,6 +371,24 @@ nlohmann::json summary_json(const RunReport& r) {
         {"stage_times_csv", "stage_times.csv"},
         {"stage_times_svg", "stage_times.svg"}}}};
   summary["topology_versions"] = r.versions;
+  // Each moving object's mass-weighted centre: last frame minus start, and its velocity.
+  nlohmann::json displacement = nlohmann::json::object(), velocity = nlohmann::json::object();
+  for (const auto& [name, path] : books.com) {
+    if (path.empty()) continue;
+    const Eigen::Vector3d d = path.back() - books.com_start.at(name);
+    const Eigen::Vector3d& v = books.com_velocity.at(name);
+    displacement[name] = {d.x(), d.y(), d.z()};
+    velocity[name] = {v.x(), v.y(), v.z()};
+  }
+  summary["com_displacement_m"] = displacement;
+  summary["com_velocity_m_s"] = velocity;
+  if (r.check) {
+    const sim::FrictionCheckResult& c = *r.check;
+    summary["analytic_check"] = {{"kind", c.kind},           {"quantity", c.quantity},
+                                 {"expected", c.expected},   {"measured", c.measured},
+                                 {"slope_deg", c.slope_deg}, {"mu", c.mu},
+                                 {"drift_m", c.drift_m},     {"passed", c.passed}};
+  }
   return summary;
 }
 
@@ -414,13 +444,13 @@ Status spawn_daemon(demo::ChildProcess& daemon, const std::filesystem::path& out
                     std::uint32_t domain, const std::string& dds_config) {
   const auto config = out / "tetcollided.yaml";
   {
-    // compute_stiffness: the implicit integrator needs the contact stiffness blocks.
+    // No pipeline.compute_stiffness: the demo asks for blocks per object (ObjectParams).
     std::ofstream c(config);
     c << "# Written by tetcollide demo --spawn-daemon: the embedded defaults, a private\n"
-         "# domain, the loopback Cyclone DDS config and the contact stiffness blocks.\n"
+         "# domain and the loopback Cyclone DDS config.\n"
          "version: 1\ndds:\n  domain: "
       << domain << "\n  cyclonedds_config: \"" << dds_config
-      << "\"\npipeline:\n  compute_stiffness: true\nlog:\n  timing_summary_period_s: 0\n";
+      << "\"\nlog:\n  timing_summary_period_s: 0\n";
   }
   const auto log = out / "tetcollided.log";
   std::error_code ec;
@@ -538,8 +568,8 @@ int run_demo(const DemoArgs& args) {
   std::unique_ptr<client::Client> c = std::move(*connected);
   DdsContactService service(*c);
   for (const auto& o : objects) {
-    service.set_params(o.spec.name, to_params(o.spec));
-    c->register_object(o.spec.name, to_client_mesh(o), to_params(o.spec));
+    service.set_params(o.spec.name, to_params(o.spec, scene));
+    c->register_object(o.spec.name, to_client_mesh(o), to_params(o.spec, scene));
   }
   for (const auto& o : objects) {
     const auto r = c->wait_registered(o.spec.name, 20s);
@@ -656,9 +686,17 @@ int run_demo(const DemoArgs& args) {
     return report_error(st.error());
   const StageTimes t = stage_times(stats, round_trip, done);
   if (auto st = write_stage_times(out, scene.name, t); !st) return report_error(st.error());
-  const std::vector<std::string> failures = sim::run_failures(books);
-  const RunReport report{scene, done,     run_s,    stats.size(),      t, books, pvd.size(),
-                         pngs,  versions, failures, g_demo_stop.load()};
+  std::vector<std::string> failures = sim::run_failures(books, scene.max_energy_rise);
+  std::optional<sim::FrictionCheckResult> check;
+  if (scene.check && books.com.count(scene.check->object) != 0) {
+    check =
+        sim::evaluate_friction_check(scene, *scene.check, books.com_start.at(scene.check->object),
+                                     books.com.at(scene.check->object));
+    if (!check->passed)
+      failures.push_back("analytic check (" + check->kind + "): " + check->failure);
+  }
+  const RunReport report{scene, done,     run_s,    stats.size(),       t,    books, pvd.size(),
+                         pngs,  versions, failures, g_demo_stop.load(), check};
   {
     std::ofstream js(out / "summary.json");
     js << summary_json(report).dump(2) << "\n";

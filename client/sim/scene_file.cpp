@@ -141,7 +141,13 @@ class Parser {
       o.shell = m;
     }
     if (const YAML::Node c = n["contact"]; c.IsDefined()) {
-      check_keys(c, {"stiffness", "damping", "max_force", "depth", "response"}, "contact");
+      check_keys(c,
+                 {"stiffness", "damping", "max_force", "depth", "response", "friction",
+                  "friction_velocity"},
+                 "contact");
+      o.contact.friction = number(c, "friction", o.contact.friction, 0.0, 1e3);
+      o.contact.friction_velocity =
+          number(c, "friction_velocity", o.contact.friction_velocity, 0.0, 1e3);
       o.contact.stiffness = number(c, "stiffness", o.contact.stiffness, 1e-12, 1e12);
       o.contact.damping = number(c, "damping", o.contact.damping, 0.0, 1e12);
       o.contact.max_force = number(c, "max_force", o.contact.max_force, 0.0, 1e12);
@@ -160,7 +166,7 @@ class Parser {
     check_keys(root,
                {"version", "name", "description", "dt", "integrator", "substeps",
                 "newton_iterations", "linear_solver", "frames", "gravity", "output_every",
-                "render_frames", "image", "camera", "objects", "rain"},
+                "render_frames", "image", "camera", "objects", "rain", "check", "max_energy_rise"},
                "the scene");
     if (get<int>(root, "version", 0) != 1) fail(root["version"], "'version: 1' is required");
     SceneSpec s;
@@ -267,6 +273,33 @@ class Parser {
     std::set<std::string> names;
     for (const auto& o : s.objects)
       if (!names.insert(o.name).second) fail(root, "object name '" + o.name + "' is repeated");
+    s.max_energy_rise = number(root, "max_energy_rise", s.max_energy_rise, 0.0, 1e3);
+    if (const YAML::Node c = root["check"]; c.IsDefined()) {
+      check_keys(c, {"kind", "object", "support", "from_s", "window_s", "max_drift_m", "tolerance"},
+                 "check");
+      FrictionCheck check;
+      check.kind = get<std::string>(c, "kind", "");
+      if (check.kind != "stick" && check.kind != "slide" && check.kind != "skid")
+        fail(c, "check 'kind' must be stick, slide or skid");
+      check.object = get<std::string>(c, "object", "");
+      check.support = get<std::string>(c, "support", "");
+      const auto find = [&](const std::string& name) -> const ObjectSpec* {
+        for (const auto& o : s.objects)
+          if (o.name == name) return &o;
+        return nullptr;
+      };
+      const ObjectSpec* object = find(check.object);
+      const ObjectSpec* support = find(check.support);
+      if (object == nullptr || object->is_static)
+        fail(c, "check 'object' must name a moving object of the scene");
+      if (support == nullptr || !support->is_static)
+        fail(c, "check 'support' must name a static object of the scene");
+      check.from_s = number(c, "from_s", check.from_s, 0.0, 1e6);
+      check.window_s = number(c, "window_s", check.window_s, 1e-6, 1e6);
+      check.max_drift_m = number(c, "max_drift_m", check.max_drift_m, 0.0, 1e6);
+      check.tolerance = number(c, "tolerance", check.tolerance, 0.0, 1.0);
+      s.check = check;
+    }
     return s;
   }
 
@@ -306,16 +339,19 @@ Expected<SceneSpec> load_scene_file(const std::filesystem::path& path,
 
 namespace tc::sim {
 
+Eigen::Matrix3d object_rotation(const ObjectSpec& object) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  return (Eigen::AngleAxisd(object.rotate_deg.z() * kDeg, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(object.rotate_deg.y() * kDeg, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(object.rotate_deg.x() * kDeg, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
 namespace {
 
 /// Scales, rotates (x, then y, then z, degrees) and translates positions as the object says.
 void place(const ObjectSpec& object, Eigen::Matrix3Xd& positions) {
-  constexpr double kDeg = 3.14159265358979323846 / 180.0;
-  const Eigen::Matrix3d r =
-      (Eigen::AngleAxisd(object.rotate_deg.z() * kDeg, Eigen::Vector3d::UnitZ()) *
-       Eigen::AngleAxisd(object.rotate_deg.y() * kDeg, Eigen::Vector3d::UnitY()) *
-       Eigen::AngleAxisd(object.rotate_deg.x() * kDeg, Eigen::Vector3d::UnitX()))
-          .toRotationMatrix();
+  const Eigen::Matrix3d r = object_rotation(object);
   for (Eigen::Index n = 0; n < positions.cols(); ++n)
     positions.col(n) = r * (object.scale * positions.col(n)) + object.translate;
 }

@@ -22,8 +22,10 @@ struct ContactSpec {
   double stiffness = 1e5;  ///< N/m^2
   double damping = 0.0;
   double max_force = 0.0;
-  std::string depth = "cpfm";     ///< cpfm | cffm | exact
-  std::string response = "auto";  ///< point | segment | auto
+  std::string depth = "cpfm";      ///< cpfm | cffm | exact
+  std::string response = "auto";   ///< point | segment | auto
+  double friction = 0.0;           ///< Coulomb coefficient mu (a pair: sqrt(mu_a mu_b))
+  double friction_velocity = 0.0;  ///< m/s; 0 = the service's default (1e-3)
 };
 
 struct ObjectSpec {
@@ -58,6 +60,26 @@ struct RainSpec {
   double radius = 0.0;
 };
 
+/// An analytic check of a friction scene (docs/DEMO.md, "Friction scenes"): what the
+/// mass-weighted centre of `object` must do on `support`, from the scene's gravity, the
+/// support's tilt (its rotate_deg turns its +z, the face it rests on) and the pair's
+/// coefficient sqrt(mu_object mu_support).
+struct FrictionCheck {
+  /// "stick": tan(theta) < mu; the centre moves at most max_drift_m in the last window_s.
+  /// "slide": tan(theta) > mu; from rest, its acceleration along the slope (a quadratic
+  ///          fit of its position from from_s on) is g (sin theta - mu cos theta).
+  /// "skid":  launched along the support at its `velocity` v0, it stops after
+  ///          v0^2 / (2 g (mu cos theta - sin theta cos phi)) (phi: between v0 and downhill)
+  ///          and then stays (max_drift_m in the last window_s).
+  std::string kind;
+  std::string object;
+  std::string support;
+  double from_s = 0.0;
+  double window_s = 1.0;
+  double max_drift_m = 1e-3;
+  double tolerance = 0.05;  ///< slide, skid: relative
+};
+
 struct CameraSpec {
   bool set = false;  ///< false: fit the camera to the scene
   Eigen::Vector3d eye{2.0, -2.0, 1.5};
@@ -85,6 +107,10 @@ struct SceneSpec {
   CameraSpec camera;
   std::vector<ObjectSpec> objects;  ///< rain copies expanded here
   std::optional<RainSpec> rain;
+  std::optional<FrictionCheck> check;
+  /// The run fails when the mechanical energy rises more than this fraction above its
+  /// initial value.
+  double max_energy_rise = 0.05;
 };
 
 /// Parses a scene from YAML text. `where` names the source in errors; relative mesh
@@ -105,6 +131,9 @@ const std::string& embedded_torus_on_box();
 }  // namespace tc::sim
 
 namespace tc::sim {
+
+/// The object's rotation: about x, then y, then z by rotate_deg (degrees).
+Eigen::Matrix3d object_rotation(const ObjectSpec& object);
 
 /// Reads the object's mesh and places it: scaled, rotated (x, then y, then z, degrees),
 /// translated. kIo / kParse from the reader.

@@ -14,6 +14,29 @@ double energy_rise(const RunBooks& books) {
          std::max(std::abs(books.energy_initial), 1e-12);
 }
 
+namespace {
+
+/// The contact force linearised in the velocity as well, for backward Euler: with the
+/// df/dv blocks D, f(v) ~ fc + D (v - vn) and v = (x - xn) / h, so the step sees the
+/// force fc - D vn and the stiffness K + D / h (docs/DEMO.md, "Integration").
+void fold_damping(const Eigen::Matrix3Xd& damping, const Eigen::Matrix3Xd& vn, double h,
+                  Eigen::Matrix3Xd& forces, Eigen::Matrix3Xd& blocks) {
+  if (damping.cols() == 0 || blocks.cols() != damping.cols()) return;
+  for (Index i = 0; i < vn.cols(); ++i) {
+    const Eigen::Matrix3d d = damping.block<3, 3>(0, 3 * i);
+    if (d.isZero()) continue;
+    forces.col(i) -= d * vn.col(i);
+    blocks.block<3, 3>(0, 3 * i) += d / h;
+  }
+}
+
+/// Mass-weighted mean of the columns of x.
+Eigen::Vector3d weighted_mean(const Eigen::VectorXd& mass, const Eigen::Matrix3Xd& x) {
+  return x * mass / mass.sum();
+}
+
+}  // namespace
+
 std::vector<std::string> run_failures(const RunBooks& books, double max_rise) {
   std::vector<std::string> failures;
   if (books.rejected > 0)
@@ -81,6 +104,11 @@ Expected<SceneRun> SceneRun::create(const SceneSpec& scene) {
   for (std::size_t i = 0; i < run.objects_.size(); ++i)
     run.probe_.set_object(i, run.objects_[i].mesh().tets,
                           static_cast<Index>(run.objects_[i].positions().cols()));
+  for (const auto& o : run.objects_) {
+    if (o.body) run.books_.com_start[o.spec.name] = weighted_mean(o.body->masses(), o.positions());
+    if (o.shell)
+      run.books_.com_start[o.spec.name] = weighted_mean(o.shell->masses(), o.positions());
+  }
   run.books_.energy_initial = run.mechanical_energy();
   run.books_.energy_max = run.books_.energy_initial;
   run.books_.energy_final = run.books_.energy_initial;
@@ -108,6 +136,7 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
     const Index n = static_cast<Index>(o.positions().cols());
     o.contact = Eigen::Matrix3Xd::Zero(3, n);
     o.blocks.resize(3, 0);
+    o.damping.resize(3, 0);
     const auto it = answers->find(o.spec.name);
     if (it == answers->end()) continue;
     const ContactAnswer& a = it->second;
@@ -123,10 +152,13 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
       return Error{ErrorCode::kInvalidArgument,
                    "the service sent contact forces without stiffness blocks (object '" +
                        o.spec.name + "', frame " + std::to_string(frame) +
-                       "); the implicit integrator needs them: run tetcollided with "
-                       "'pipeline: {compute_stiffness: true}' in its --config file (as "
-                       "--spawn-daemon and scripts/demo.sh do), or use --spawn-daemon"};
+                       "); the implicit integrator needs them: the demo asks for them per "
+                       "object (protocol 3); a service before that needs "
+                       "'pipeline: {compute_stiffness: true}' in its --config file, or use "
+                       "--spawn-daemon"};
+    const bool damping = blocks && a.damping.size() == a.stiffness.size();
     if (blocks && o.moving()) o.blocks = Eigen::Matrix3Xd::Zero(3, 3 * n);
+    if (damping && o.moving()) o.damping = Eigen::Matrix3Xd::Zero(3, 3 * n);
     for (std::size_t k = 0; k < a.nodes.size(); ++k) {
       const Index i = a.nodes[k];
       if (i < 0 || i >= n) continue;
@@ -134,6 +166,9 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
       if (blocks && o.moving())
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) o.blocks(r, 3 * i + c) = a.stiffness[9 * k + 3 * r + c];
+      if (damping && o.moving())
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) o.damping(r, 3 * i + c) = a.damping[9 * k + 3 * r + c];
     }
     contacts += a.nodes.size();
     double& peak = books_.peak_contact_force[o.spec.name];
@@ -160,9 +195,11 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
 
 Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, std::int64_t frame) {
   for (auto& o : objects_) {
+    Eigen::Matrix3Xd forces = o.contact, blocks = o.blocks;
+    fold_damping(o.damping, o.velocities(), scene_.dt, forces, blocks);
     if (o.shell) {
       const auto report =
-          o.shell->step(scene_.dt, scene_.gravity, o.contact, o.blocks, scene_.newton_iterations);
+          o.shell->step(scene_.dt, scene_.gravity, forces, blocks, scene_.newton_iterations);
       books_.newton_iterations += static_cast<std::size_t>(report.newton_iterations);
       if (report.linear_solver_failed || report.line_search_failed) ++books_.step_failures;
       if (!o.shell->positions().allFinite() || !o.shell->velocities().allFinite()) {
@@ -172,7 +209,7 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
     }
     if (!o.body) continue;
     if (o.stepper) {
-      const auto report = o.stepper->step(*o.body, scene_.dt, scene_.gravity, o.contact, o.blocks);
+      const auto report = o.stepper->step(*o.body, scene_.dt, scene_.gravity, forces, blocks);
       books_.newton_iterations += static_cast<std::size_t>(report.newton_iterations);
       if (report.linear_solver_failed || report.line_search_failed) ++books_.step_failures;
     } else {
@@ -211,6 +248,7 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
     probe_.set_object(i, o.body->rest_mesh().tets, o.body->node_count());
     o.contact = Eigen::Matrix3Xd::Zero(3, o.body->node_count());
     o.blocks.resize(3, 0);
+    o.damping.resize(3, 0);
     if (auto st = service.reregister(o.spec.name, o.body->rest_mesh()); !st) return st.error();
     cut.push_back(i);
   }
@@ -221,6 +259,13 @@ Expected<std::vector<std::size_t>> SceneRun::advance(ContactService& service, st
   books_.dissipated = 0.0;
   books_.kinetic_final = 0.0;
   for (const auto& o : objects_) {
+    const Eigen::VectorXd* mass = o.body    ? &o.body->masses()
+                                  : o.shell ? &o.shell->masses()
+                                            : nullptr;
+    if (mass != nullptr) {
+      books_.com[o.spec.name].push_back(weighted_mean(*mass, o.positions()));
+      books_.com_velocity[o.spec.name] = weighted_mean(*mass, o.velocities());
+    }
     if (o.body) {
       books_.dissipated += o.body->dissipated();
       books_.kinetic_final += o.body->energy(scene_.gravity).kinetic;

@@ -37,6 +37,7 @@ struct ContactAnswer {
   std::vector<std::int32_t> nodes;  ///< k node indices
   std::vector<double> forces;       ///< 3k, newtons
   std::vector<double> stiffness;    ///< 9k row-major df/dx blocks (N/m), or empty
+  std::vector<double> damping;      ///< 9k row-major df/dv blocks (N s/m), or empty
 };
 
 /// One moving object's state for a frame (views into the body).
@@ -68,6 +69,7 @@ struct SimObject {
   std::optional<ImplicitStepper> stepper;
   Eigen::Matrix3Xd contact;  ///< this frame's forces, 3 x n, newtons
   Eigen::Matrix3Xd blocks;   ///< this frame's df/dx blocks, 3 x 3n (N/m), or empty
+  Eigen::Matrix3Xd damping;  ///< this frame's df/dv blocks, 3 x 3n (N s/m), or empty
   Eigen::Matrix3Xd zero_velocity;
   std::vector<bool> inverted_seen;  ///< per tet: counted in the books already
 
@@ -111,6 +113,11 @@ struct RunBooks {
   double last_penetration = 0.0;  ///< deepest node at the last probed frame
   std::int64_t last_probe_frame = -1;
   std::size_t contacts = 0;  ///< contact nodes of the last frame
+  /// Per moving object: its mass-weighted centre (m) and velocity (m/s) after each step,
+  /// and at the start (`com_start`).
+  std::map<std::string, Eigen::Vector3d> com_start;
+  std::map<std::string, std::vector<Eigen::Vector3d>> com;
+  std::map<std::string, Eigen::Vector3d> com_velocity;
   /// Per object: the largest |sum of its contact forces| over the frames, N. The
   /// service's forces balance (a tet pair's and a surface pair's), so the two objects of
   /// a lone contact show the same figure.

@@ -34,7 +34,8 @@ objects:
 
 TEST(SceneFile, CommittedScenesParse) {
   for (const char* name : {"torus_on_box", "torus_on_box_k1e5", "torus_on_box_k1e6",
-                           "ellipsoid_rain", "tissue_tear", "sphere_on_tissue"}) {
+                           "torus_on_box_friction", "ellipsoid_rain", "tissue_tear",
+                           "sphere_on_tissue", "slope_slide", "slope_stick", "block_skid"}) {
     SCOPED_TRACE(name);
     const auto s = load_scene_file(kRoot / "config" / "scenes" / (std::string(name) + ".yaml"), {});
     ASSERT_TRUE(s) << s.error().message;
@@ -44,6 +45,48 @@ TEST(SceneFile, CommittedScenesParse) {
     EXPECT_FALSE(s->render_frames.empty());
     for (const auto& o : s->objects) EXPECT_TRUE(std::filesystem::exists(o.mesh)) << o.mesh;
   }
+}
+
+TEST(SceneFile, FrictionAndItsCheck) {
+  const std::string scene = R"(version: 1
+name: slide
+max_energy_rise: 0.01
+objects:
+  - name: ramp
+    mesh: data/meshes/box.msh
+    static: true
+    rotate_deg: [25, 0, 0]
+    contact: {stiffness: 1.0e5, friction: 0.3}
+  - name: block
+    mesh: data/meshes/box.msh
+    scale: 0.1
+    contact: {stiffness: 1.0e5, friction: 0.4, friction_velocity: 1.0e-4}
+check: {kind: slide, object: block, support: ramp, from_s: 0.1}
+)";
+  const auto s = parse(scene);
+  ASSERT_TRUE(s) << s.error().message;
+  EXPECT_EQ(s->objects[0].contact.friction, 0.3);
+  EXPECT_EQ(s->objects[0].contact.friction_velocity, 0.0);
+  EXPECT_EQ(s->objects[1].contact.friction, 0.4);
+  EXPECT_EQ(s->objects[1].contact.friction_velocity, 1e-4);
+  EXPECT_EQ(s->max_energy_rise, 0.01);
+  ASSERT_TRUE(s->check.has_value());
+  EXPECT_EQ(s->check->kind, "slide");
+  EXPECT_EQ(s->check->from_s, 0.1);
+  EXPECT_EQ(s->check->tolerance, 0.05);  // the default
+  const auto fails = [&](const std::string& from, const std::string& to, const char* says) {
+    std::string text = scene;
+    text.replace(text.find(from), from.size(), to);
+    const auto bad = parse(text);
+    ASSERT_FALSE(bad) << to;
+    EXPECT_NE(bad.error().message.find(says), std::string::npos) << bad.error().message;
+    EXPECT_NE(bad.error().message.find("bad.yaml:"), std::string::npos) << bad.error().message;
+  };
+  fails("kind: slide", "kind: roll", "stick, slide or skid");
+  fails("support: ramp", "support: block", "'support' must name a static object");
+  fails("object: block", "object: ramp", "'object' must name a moving object");
+  fails("friction: 0.3}", "friction: -1}", "'friction'");
+  fails("from_s: 0.1", "sideways: 1", "unknown key 'sideways' in check");
 }
 
 TEST(SceneFile, EmbeddedSceneIsTheCommittedFile) {
