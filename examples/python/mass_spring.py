@@ -70,12 +70,17 @@ class MassSpring:
         """Smallest current / rest tet volume (<= 0: a tet inverted)."""
         return float(np.min(self.volumes_and_gradients()[0] / self.volume))
 
-    def apply_contact(self, nodes, forces, stiffness, h):
-        """Linearly implicit contact impulse on the nodes in contact (k,), (k, 3), (k, 3, 3)."""
+    def apply_contact(self, nodes, forces, stiffness, h, damping=None):
+        """Linearly implicit contact impulse on the nodes in contact (k,), (k, 3), (k, 3, 3).
+
+        damping: the df/dv blocks (k, 3, 3) of the contact damping and friction, or None:
+        m dv = h (f + h K (v + dv) + D dv), solved node by node."""
         if len(nodes) == 0:
             return
         m = self.mass[nodes][:, None, None] * np.eye(3)
         lhs = m - h * h * stiffness
+        if damping is not None:
+            lhs = lhs - h * damping
         rhs = h * forces + h * h * np.einsum("kij,kj->ki", stiffness, self.v[nodes])
         self.v[nodes] += np.linalg.solve(lhs, rhs[:, :, None])[:, :, 0]
         if self.free is not None:

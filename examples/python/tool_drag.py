@@ -18,8 +18,10 @@ organ's energy, the driver's work, the round trip) and <out>/tool_drag.png.
 
 Exit code 0 when the physics checks pass, 1 (naming the check) otherwise: no force
 before the tip reaches the organ, an upward force while pressed, action = reaction on
-every frame, no inverted organ tet, and no energy from nowhere (the organ ends with no
-more than the driver's work on it).
+every frame, no inverted organ tet, no energy from nowhere (the organ ends with no
+more than the driver's work on it), and Coulomb's law while the tool slides: with
+--friction MU (default 0.3) the force against the drag is MU times the force pressing
+the tool up, within 5 % (0 = frictionless: then under 1 % of it).
 """
 import argparse
 import csv
@@ -101,9 +103,10 @@ def run(args):
             return 1
         tip, tip_velocity = tip_at(path, 0.0)
         client.register("organ", organ_nodes, organ_tets, stiffness=args.stiffness,
-                        damping=args.damping)
+                        damping=args.damping, friction=args.friction, blocks=True)
         client.register_surface("tool", tool_rest + tip, tool_triangles,
-                                stiffness=args.stiffness, damping=args.damping)
+                                stiffness=args.stiffness, damping=args.damping,
+                                friction=args.friction)
         for name in ("organ", "tool"):
             client.wait_registered(name, 20.0).check(name)
         tool_velocity = np.zeros_like(tool_rest)
@@ -124,7 +127,8 @@ def run(args):
             on_tool = answer["tool"].forces.sum(axis=0)
             on_organ = answer["organ"]
             organ_total = on_organ.forces.sum(axis=0)
-            organ.apply_contact(on_organ.nodes, on_organ.forces, on_organ.stiffness, h)
+            organ.apply_contact(on_organ.nodes, on_organ.forces, on_organ.stiffness, h,
+                                on_organ.damping)
             organ.step(h, args.substeps, gravity=0.0)
             next_tip = tip_at(path, t + h)[0]
             work -= float(on_tool @ (next_tip - tip))
@@ -171,12 +175,24 @@ def run(args):
     trips = col["round_trip_ms"]
     hold = (t >= path[2, 0]) & (t < path[3, 0])
     drag = (t >= path[3, 0]) & (t < path[4, 0])
+    # Sliding: the drag after its first 50 ms (the organ's surface has caught up).
+    sliding = (t >= path[3, 0] + 0.05) & (t < path[4, 0])
+    against = -force[sliding, 0].mean()  # friction on the tool opposes its +x motion
+    pressing = force[sliding, 2].mean()
+    ratio = against / pressing
+    if args.friction > 0.0 and abs(ratio - args.friction) > 0.05 * args.friction:
+        failures.append("while sliding the force against the drag is %.4g x the normal force,"
+                        " not mu = %.4g within 5 %%" % (ratio, args.friction))
+    if args.friction == 0.0 and abs(ratio) > 0.01:
+        failures.append("frictionless, yet the force against the drag is %.4g x the normal"
+                        " force" % ratio)
     print("tool_drag: %d frames of %.1f ms; tool pressed %.0f mm: force on it %.1f N up while held,"
-          " %.1f N along x while dragged (mean), peak %.1f N; driver work %.4g J, organ energy"
-          " at the end %.4g J; round trip p50 %.2f ms, max %.2f ms; outputs in %s"
+          " %.1f N along x while dragged (mean), peak %.1f N; sliding: %.4g x the normal force"
+          " (mu = %.3g); driver work %.4g J, organ energy at the end %.4g J; round trip p50"
+          " %.2f ms, max %.2f ms; outputs in %s"
           % (len(rows), h * 1e3, args.press * 1e3, force[hold, 2].mean(), force[drag, 0].mean(),
-             np.linalg.norm(force, axis=1).max(), work, col["organ_energy_j"][-1],
-             np.median(trips), trips.max(), out))
+             np.linalg.norm(force, axis=1).max(), ratio, args.friction, work,
+             col["organ_energy_j"][-1], np.median(trips), trips.max(), out))
     for failure in failures:
         print("tool_drag: FAILED: " + failure, file=sys.stderr)
     return 1 if failures else 0
@@ -190,6 +206,8 @@ def main():
     p.add_argument("--press", type=float, default=0.02, help="how deep the tip goes, m (default 0.02)")
     p.add_argument("--stiffness", type=float, default=3e5, help="contact stiffness, N/m^2")
     p.add_argument("--damping", type=float, default=100.0, help="contact damping, N s/m^2")
+    p.add_argument("--friction", type=float, default=0.3,
+                   help="Coulomb coefficient of the tool and the organ (default 0.3)")
     p.add_argument("--out", default="out/python_tool_drag", help="output directory")
     p.add_argument("--no-plot", action="store_true", help="write the CSV only")
     return run_with_daemon(p.parse_args(), run)
