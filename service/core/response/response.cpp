@@ -556,7 +556,7 @@ void add_object_forces(ObjectForces& total, const ObjectForces& part) {
       merged.forces.push_back(from->forces[k] + add->forces[l]);
       if (blocks) {
         merged.stiffness.push_back(block_of(from->stiffness, k) + add->stiffness[l]);
-        merged.damping.push_back(block_of(from->damping, k) + add->damping[l]);
+        merged.damping.push_back(block_of(from->damping, k) + block_of(add->damping, l));
       }
       return;
     }
