@@ -447,6 +447,69 @@ TEST_F(ServiceTest, ASurfaceObjectPressedIntoABoxIsPushedOut) {
       << verdict.message;
 }
 
+/// Protocol 3 through the daemon: a box sliding over a static one with friction gets the
+/// pair's Coulomb force (sqrt(0.4 x 0.9) = 0.6 times the push, against the slip), the
+/// reaction balances it, the blocks (df/dx and df/dv) go to the object that asked for
+/// them only, a state without velocities is at rest (no friction), and a bad coefficient
+/// is rejected naming the parameter.
+TEST_F(ServiceTest, FrictionAndPerObjectBlocks) {
+  auto c = connect("friction");
+  const client::Mesh floor = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  const client::Mesh block = box_mesh(3, {-0.3, -0.3, 0.48}, {0.3, 0.3, 1.08});  // 2 cm in
+  client::ObjectParams pf;
+  pf.is_static = true;
+  pf.friction = 0.4;
+  pf.response = client::ResponseKind::kPoint;
+  client::ObjectParams pb = pf;
+  pb.is_static = false;
+  pb.friction = 0.9;
+  pb.blocks = true;
+  c->register_object("floor", floor, pf);
+  c->register_object("block", block, pb);
+  ASSERT_TRUE(c->wait_registered("floor", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("block", 10s).ok);
+  const std::size_t n = block.rest_positions.size() / 3;
+  std::vector<double> sliding(3 * n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) sliding[3 * i] = 0.5;  // +x at 0.5 m/s
+  const auto total = [](const client::ObjectForces& f) {
+    std::array<double, 3> sum{0.0, 0.0, 0.0};
+    for (std::size_t k = 0; k < f.forces.size(); ++k) sum[k % 3] += f.forces[k];
+    return sum;
+  };
+  for (const bool moving : {true, false}) {
+    SCOPED_TRACE(moving ? "sliding" : "no velocities");
+    const std::int64_t frame = moving ? 0 : 1;
+    c->publish_states(frame, {{"block", block.rest_positions,
+                               moving ? std::span<const double>(sliding) : std::span<const double>()}});
+    const auto answer = c->wait_forces(frame, 10s);
+    ASSERT_TRUE(answer);
+    const client::ObjectForces* fb = answer->find("block");
+    const client::ObjectForces* ff = answer->find("floor");
+    ASSERT_TRUE(fb != nullptr && ff != nullptr);
+    expect_sane(*fb, n);
+    const auto on_block = total(*fb), on_floor = total(*ff);
+    ASSERT_GT(on_block[2], 0.0);
+    EXPECT_NEAR(on_block[0], moving ? -0.6 * on_block[2] : 0.0, 1e-9 * on_block[2]);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(on_block[k] + on_floor[k], 0.0, 1e-9 * on_block[2]);
+    EXPECT_EQ(fb->stiffness.size(), 9 * fb->nodes.size());
+    EXPECT_EQ(fb->damping.size(), 9 * fb->nodes.size());
+    EXPECT_TRUE(ff->stiffness.empty() && ff->damping.empty());  // the floor did not ask
+    double slip = 0.0;  // sliding along x: friction's secant acts across the tangent plane
+    for (std::size_t k = 0; k < fb->nodes.size(); ++k) slip += fb->damping[9 * k + 4];
+    if (moving) {
+      EXPECT_LT(slip, 0.0);
+    }
+  }
+  client::ObjectParams bad = pb;
+  bad.friction = -0.1;
+  c->register_object("bad", block, bad);
+  const auto r = c->wait_registered("bad", 10s);
+  ASSERT_TRUE(r.done);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.code, static_cast<int>(StatusCode::kInvalidArgument)) << r.message;
+  EXPECT_NE(r.message.find("params.friction"), std::string::npos) << r.message;
+}
+
 TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
   auto c = connect("remove");
   TwoBoxes s;

@@ -58,13 +58,19 @@ def test_tool_drag_reports_the_forces_on_a_rigid_stl_tool(workdir):
     away = z > 0.151
     assert (fz[away & (t < 0.5)] == 0).all() and (col["contact_vertices"][away & (t < 0.5)] == 0).all()
     assert fz[-50:].max() == 0
-    # Held 2 cm in on the flat top: pushed straight up (the tip is round and centred).
+    # Held 2 cm in on the flat top: pushed up, and the sideways part (the friction of the
+    # organ's surface settling under the tip, mu = 0.3) inside the Coulomb cone.
     hold = (t >= 0.2) & (t < 0.25)
     assert (fz[hold] > 100).all()
-    assert (np.hypot(fx[hold], fy[hold]) < 0.05 * fz[hold]).all()
-    # Pressed all along the drag; the organ got the opposite force.
+    assert (np.hypot(fx[hold], fy[hold]) <= 0.3 * fz[hold]).all()
+    # Pressed all along the drag; the organ got the opposite force. Sliding (after the
+    # first 50 ms of the drag), the mean force against the +x motion is mu = 0.3 times the
+    # mean push within 5 %. Frame by frame it swings (0.18-0.41 of the push in one run) as
+    # the tip crosses the coarse organ's tilted faces, whose normal pushes have an x part.
     drag = (t >= 0.25) & (t < 0.75)
     assert (fz[drag] > 0).all()
+    sliding = (t >= 0.30) & (t < 0.75)
+    assert abs(-fx[sliding].mean() / fz[sliding].mean() - 0.3) <= 0.05 * 0.3
     assert np.allclose(col["organ_force_z_n"], -fz, rtol=1e-9, atol=1e-9)
     # The driver did positive work; the organ keeps no more than that.
     work = col["driver_work_j"][-1]
