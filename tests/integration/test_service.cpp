@@ -479,8 +479,9 @@ TEST_F(ServiceTest, FrictionAndPerObjectBlocks) {
   for (const bool moving : {true, false}) {
     SCOPED_TRACE(moving ? "sliding" : "no velocities");
     const std::int64_t frame = moving ? 0 : 1;
-    c->publish_states(frame, {{"block", block.rest_positions,
-                               moving ? std::span<const double>(sliding) : std::span<const double>()}});
+    c->publish_states(frame,
+                      {{"block", block.rest_positions,
+                        moving ? std::span<const double>(sliding) : std::span<const double>()}});
     const auto answer = c->wait_forces(frame, 10s);
     ASSERT_TRUE(answer);
     const client::ObjectForces* fb = answer->find("block");
