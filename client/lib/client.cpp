@@ -39,6 +39,35 @@ dds_entity_t check(dds_entity_t e, const std::string& call) {
   return e;
 }
 
+/// The contact rows of an answer (protocol 3, ContactForces.contact_*). Rows whose arrays
+/// are short or whose `other` is out of range (a malformed answer) are left out.
+void read_contacts(const tetcollide_ContactForces& s, std::vector<Contact>& out) {
+  out.clear();
+  const std::size_t rows = s.contact_other._length;
+  if (s.contact_intrudes._length != rows || s.contact_nodes._length != 2 * rows ||
+      s.contact_weights._length != 2 * rows || s.contact_tets._length != rows ||
+      s.contact_barycentric._length != 4 * rows || s.contact_depths._length != rows ||
+      s.contact_normals._length != 3 * rows)
+    return;
+  out.reserve(rows);
+  for (std::size_t r = 0; r < rows; ++r) {
+    const auto other = s.contact_other._buffer[r];
+    if (other < 0 || static_cast<std::uint32_t>(other) >= s.contact_objects._length) continue;
+    Contact c;
+    c.other = std::string(protocol::bounded_view(s.contact_objects._buffer[other]));
+    c.intrudes = s.contact_intrudes._buffer[r];
+    for (std::size_t k = 0; k < 2; ++k) {
+      c.nodes[k] = s.contact_nodes._buffer[2 * r + k];
+      c.weights[k] = s.contact_weights._buffer[2 * r + k];
+    }
+    c.tet = s.contact_tets._buffer[r];
+    for (std::size_t k = 0; k < 4; ++k) c.barycentric[k] = s.contact_barycentric._buffer[4 * r + k];
+    c.depth = s.contact_depths._buffer[r];
+    for (std::size_t k = 0; k < 3; ++k) c.normal[k] = s.contact_normals._buffer[3 * r + k];
+    out.push_back(std::move(c));
+  }
+}
+
 void check_rc(dds_return_t rc, const std::string& call) {
   if (rc < 0) throw_dds(call, rc);
 }
@@ -297,6 +326,7 @@ struct Client::Impl {
     s.params.friction = t.params.friction;
     s.params.friction_velocity = t.params.friction_velocity;
     s.params.blocks = t.params.blocks;
+    s.params.contacts = t.params.contacts;
     // The write's timestamp comes back in the service's verdict: a verdict on an earlier
     // write of the same version (kept in the status history) is not mistaken for this one.
     const dds_time_t stamp = dds_time();
@@ -340,6 +370,7 @@ struct Client::Impl {
             f.forces.assign(s->forces._buffer, s->forces._buffer + s->forces._length);
             f.stiffness.assign(s->stiffness._buffer, s->stiffness._buffer + s->stiffness._length);
             f.damping.assign(s->damping._buffer, s->damping._buffer + s->damping._length);
+            read_contacts(*s, f.contacts);
             for (std::uint32_t k = 0; k < s->left_out._length; ++k)
               f.left_out.emplace_back(protocol::bounded_view(s->left_out._buffer[k]));
             auto& frame_answers = answers[s->frame];

@@ -142,6 +142,51 @@ py::object g_rejected_error;  // tetcollide.RejectedError, set at import
 
 // --- answers ------------------------------------------------------------------------
 
+/// The contacts behind an answer's forces (ObjectParams.contacts) as NumPy columns, one
+/// row per contact point (docs/PROTOCOL.md "Contacts").
+struct PyContacts {
+  py::array node;         ///< int32 (k,): the intruding node (the edge's first for a piece)
+  py::array nodes;        ///< int32 (k, 2): the intruding object's nodes (second -1: a point)
+  py::array weights;      ///< float64 (k, 2): the point is w0 x[n0] + w1 x[n1]
+  py::array other;        ///< str (k,): the other object
+  py::array intrudes;     ///< bool (k,): this object's point is inside the other
+  py::array tet;          ///< int32 (k,): the penetrated object's tet
+  py::array barycentric;  ///< float64 (k, 4): the point in that tet
+  py::array depth;        ///< float64 (k,): metres
+  py::array normal;       ///< float64 (k, 3): unit push-out direction of the intruder
+
+  explicit PyContacts(const std::vector<tc::client::Contact>& c) {
+    const auto k = static_cast<py::ssize_t>(c.size());
+    std::vector<std::int32_t> n0(c.size()), ns(2 * c.size()), t(c.size());
+    std::vector<double> w(2 * c.size()), b(4 * c.size()), d(c.size()), nr(3 * c.size());
+    py::array_t<bool> in(k);
+    py::list names;
+    auto in_w = in.mutable_unchecked<1>();
+    for (std::size_t r = 0; r < c.size(); ++r) {
+      n0[r] = c[r].nodes[0];
+      for (std::size_t j = 0; j < 2; ++j) {
+        ns[2 * r + j] = c[r].nodes[j];
+        w[2 * r + j] = c[r].weights[j];
+      }
+      t[r] = c[r].tet;
+      for (std::size_t j = 0; j < 4; ++j) b[4 * r + j] = c[r].barycentric[j];
+      d[r] = c[r].depth;
+      for (std::size_t j = 0; j < 3; ++j) nr[3 * r + j] = c[r].normal[j];
+      in_w(static_cast<py::ssize_t>(r)) = c[r].intrudes;
+      names.append(c[r].other);
+    }
+    node = owning_array(std::move(n0), {k});
+    nodes = owning_array(std::move(ns), {k, 2});
+    weights = owning_array(std::move(w), {k, 2});
+    tet = owning_array(std::move(t), {k});
+    barycentric = owning_array(std::move(b), {k, 4});
+    depth = owning_array(std::move(d), {k});
+    normal = owning_array(std::move(nr), {k, 3});
+    intrudes = std::move(in);
+    other = py::module_::import("numpy").attr("array")(names, py::arg("dtype") = "str");
+  }
+};
+
 /// ObjectForces with NumPy arrays that own the client's vectors.
 struct PyObjectForces {
   std::string object;
@@ -152,6 +197,7 @@ struct PyObjectForces {
   py::array forces;
   py::object stiffness;
   py::object damping;
+  std::shared_ptr<PyContacts> contacts;
   std::int64_t state_frame = -1;
   std::uint64_t answer_id = 0;
   std::vector<std::string> left_out;
@@ -164,6 +210,7 @@ struct PyObjectForces {
         state_frame(f.state_frame),
         answer_id(f.answer_id),
         left_out(std::move(f.left_out)) {
+    contacts = std::make_shared<PyContacts>(f.contacts);
     const auto k = static_cast<py::ssize_t>(f.nodes.size());
     // A malformed answer (lengths that do not match) would be the service's bug; the
     // C++ client passes it on as it came, so do we, as flat arrays.
@@ -264,10 +311,10 @@ class PyClient {
                                 double max_force, bool is_static, const std::string& depth,
                                 const std::string& response, const py::object& node_ids_obj,
                                 std::uint32_t version, double friction, double friction_velocity,
-                                bool blocks) {
+                                bool blocks, bool contacts) {
     return register_cells(object, nodes_obj, tets_obj, "tets", 4,
                           make_params(stiffness, damping, max_force, is_static, depth, response,
-                                      friction, friction_velocity, blocks),
+                                      friction, friction_velocity, blocks, contacts),
                           node_ids_obj, version);
   }
 
@@ -275,11 +322,12 @@ class PyClient {
                                  const py::object& triangles_obj, double stiffness, double damping,
                                  double max_force, bool is_static, const std::string& response,
                                  const py::object& node_ids_obj, std::uint32_t version,
-                                 double friction, double friction_velocity, bool blocks) {
+                                 double friction, double friction_velocity, bool blocks,
+                                 bool contacts) {
     // A surface has no depth map: the depth method is never used ("cpfm" is sent).
     return register_cells(object, nodes_obj, triangles_obj, "triangles", 3,
                           make_params(stiffness, damping, max_force, is_static, "cpfm", response,
-                                      friction, friction_velocity, blocks),
+                                      friction, friction_velocity, blocks, contacts),
                           node_ids_obj, version);
   }
 
@@ -287,7 +335,8 @@ class PyClient {
   static tc::client::ObjectParams make_params(double stiffness, double damping, double max_force,
                                               bool is_static, const std::string& depth,
                                               const std::string& response, double friction,
-                                              double friction_velocity, bool blocks) {
+                                              double friction_velocity, bool blocks,
+                                              bool contacts) {
     for (const auto& [value, param] :
          {std::pair{stiffness, "stiffness"}, std::pair{damping, "damping"},
           std::pair{max_force, "max_force"}, std::pair{friction, "friction"},
@@ -305,6 +354,7 @@ class PyClient {
     params.friction = friction;
     params.friction_velocity = friction_velocity;
     params.blocks = blocks;
+    params.contacts = contacts;
     return params;
   }
 
@@ -633,6 +683,28 @@ malformed.)");
                "), message=" + std::string(py::repr(py::str(r.message))) + ")";
       });
 
+  py::class_<PyContacts, std::shared_ptr<PyContacts>>(
+      m, "Contacts",
+      "The contacts behind an answer's forces, one row per contact point (docs/PROTOCOL.md "
+      "'Contacts'): the point nodes/weights of the intruding object inside tet `tet` of the "
+      "penetrated one at `barycentric`, `depth` deep, pushed out along `normal`.")
+      .def_readonly("node", &PyContacts::node,
+                    "int32 (k,): the intruding node (a piece of an edge: its first node)")
+      .def_readonly("nodes", &PyContacts::nodes,
+                    "int32 (k, 2): the intruding object's nodes; the second is -1 for a point")
+      .def_readonly("weights", &PyContacts::weights,
+                    "float64 (k, 2): the point is w0 x[n0] + w1 x[n1]")
+      .def_readonly("other", &PyContacts::other, "str (k,): the other object")
+      .def_readonly("intrudes", &PyContacts::intrudes,
+                    "bool (k,): True = this object's point is inside the other")
+      .def_readonly("tet", &PyContacts::tet, "int32 (k,): the penetrated object's tet")
+      .def_readonly("barycentric", &PyContacts::barycentric,
+                    "float64 (k, 4): the point's barycentric coordinates in that tet")
+      .def_readonly("depth", &PyContacts::depth, "float64 (k,): penetration depth, m")
+      .def_readonly("normal", &PyContacts::normal,
+                    "float64 (k, 3): unit push-out direction of the intruding point")
+      .def("__len__", [](const PyContacts& c) { return c.depth.shape(0); });
+
   py::class_<PyObjectForces, std::shared_ptr<PyObjectForces>>(
       m, "ObjectForces", "The service's answer for one object and frame (arrays own their data).")
       .def_readonly("object", &PyObjectForces::object)
@@ -647,6 +719,9 @@ malformed.)");
       .def_readonly("stiffness", &PyObjectForces::stiffness,
                     "float64 (k, 3, 3): row-major df/dx blocks, N/m; None when none were asked "
                     "(register(blocks=False), pipeline.compute_stiffness off) and k > 0")
+      .def_readonly("contacts", &PyObjectForces::contacts,
+                    "Contacts: the contacts behind the forces (register(contacts=True)); 0 rows "
+                    "otherwise")
       .def_readonly("damping", &PyObjectForces::damping,
                     "float64 (k, 3, 3): row-major df/dv blocks (contact damping and friction), "
                     "N s/m; present with stiffness (protocol 3), else None when k > 0")
@@ -795,6 +870,7 @@ objects). One thread per Client; every wait releases the GIL.)")
            py::arg("max_force") = 0.0, py::arg("static") = false, py::arg("depth") = "cpfm",
            py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
            py::arg("friction") = 0.0, py::arg("friction_velocity") = 0.0, py::arg("blocks") = false,
+           py::arg("contacts") = false,
            R"(Publishes (or, after a cut, replaces) an object's topology; returns the version sent.
 
   nodes      (n, 3) float64 rest positions, metres
@@ -807,6 +883,7 @@ objects). One thread per Client; every wait releases the GIL.)")
   friction   Coulomb coefficient mu >= 0 (a pair uses sqrt(mu_a mu_b); 0 = none)
   friction_velocity  m/s below which friction sticks viscously (0 = service default 1e-3)
   blocks     answers carry df/dx (stiffness) and df/dv (damping) blocks (protocol 3)
+  contacts   answers carry the contacts behind the forces, ObjectForces.contacts (protocol 3)
 
 The topology is copied once into the sample (the C++ API takes vectors). The service's
 verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arguments.)")
@@ -815,6 +892,7 @@ verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arg
            py::arg("damping") = 0.0, py::arg("max_force") = 0.0, py::arg("static") = false,
            py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
            py::arg("friction") = 0.0, py::arg("friction_velocity") = 0.0, py::arg("blocks") = false,
+           py::arg("contacts") = false,
            R"(Publishes (or replaces) a surface object's topology (docs/SURFACES.md, protocol 2).
 
   nodes      (n, 3) float64 rest positions, metres

@@ -62,6 +62,7 @@ Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::T
         r.params.friction = s->params.friction;
         r.params.friction_velocity = s->params.friction_velocity;
         r.params.blocks = s->params.blocks;
+        r.params.contacts = s->params.contacts;
         st = writer.write(r);
         ++summary.topologies;
       }

@@ -104,7 +104,8 @@ json encode(const TopologyRecord& r) {
               {"response", client::response_kind_name(r.params.response)},
               {"friction", r.params.friction},
               {"friction_velocity", r.params.friction_velocity},
-              {"blocks", r.params.blocks}}}};
+              {"blocks", r.params.blocks},
+              {"contacts", r.params.contacts}}}};
   // Only surface objects carry triangles: tet recordings stay as they were.
   if (!r.mesh.triangles.empty()) j["triangles"] = r.mesh.triangles;
   return j;
@@ -184,6 +185,7 @@ Record decode(const json& j) {
     if (p.contains("friction_velocity"))
       r.params.friction_velocity = p.at("friction_velocity").get<double>();
     if (p.contains("blocks")) r.params.blocks = p.at("blocks").get<bool>();
+    if (p.contains("contacts")) r.params.contacts = p.at("contacts").get<bool>();
     return r;
   }
   if (type == "remove") {

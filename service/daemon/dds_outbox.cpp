@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <memory>
 #include <vector>
 
 #include "protocol.hpp"
@@ -143,6 +144,38 @@ void DdsOutbox::publish_forces(const ForcesMessage& m) {
   for (std::size_t i = 0; i < left_out.size(); ++i) copy_cut(left_out[i].text, m.left_out[i]);
   protocol::borrow(s.left_out, reinterpret_cast<WireObjectName::Text*>(left_out.data()),
                    left_out.size());
+  // The contacts behind the forces, for an object that asked (docs/PROTOCOL.md "Contacts").
+  const std::size_t rows = m.contacts != nullptr ? m.contacts->rows.size() : 0;
+  std::vector<WireObjectName> others(m.contacts != nullptr ? m.contacts->others.size() : 0);
+  std::vector<std::int32_t> other(rows), nodes(2 * rows), tets(rows);
+  std::unique_ptr<bool[]> intrudes;
+  if (rows > 0) intrudes = std::make_unique<bool[]>(rows);
+  std::vector<double> weights(2 * rows), bary(4 * rows), depths(rows), normals(3 * rows);
+  for (std::size_t i = 0; i < others.size(); ++i) copy_cut(others[i].text, m.contacts->others[i]);
+  for (std::size_t r = 0; r < rows; ++r) {
+    const ObjectContacts::Row& row = m.contacts->rows[r];
+    const ContactRow& c = row.contact;
+    other[r] = static_cast<std::int32_t>(row.other);
+    intrudes[r] = row.intrudes;
+    for (int k = 0; k < 2; ++k) {
+      nodes[2 * r + k] = static_cast<std::int32_t>(c.nodes[k]);
+      weights[2 * r + k] = c.weights[k];
+    }
+    tets[r] = static_cast<std::int32_t>(c.tet);
+    for (int k = 0; k < 4; ++k) bary[4 * r + k] = c.bary[k];
+    depths[r] = c.depth;
+    for (int k = 0; k < 3; ++k) normals[3 * r + k] = c.normal[k];
+  }
+  protocol::borrow(s.contact_objects, reinterpret_cast<WireObjectName::Text*>(others.data()),
+                   others.size());
+  protocol::borrow(s.contact_other, other.data(), rows);
+  protocol::borrow(s.contact_intrudes, intrudes.get(), rows);
+  protocol::borrow(s.contact_nodes, nodes.data(), nodes.size());
+  protocol::borrow(s.contact_weights, weights.data(), weights.size());
+  protocol::borrow(s.contact_tets, tets.data(), rows);
+  protocol::borrow(s.contact_barycentric, bary.data(), bary.size());
+  protocol::borrow(s.contact_depths, depths.data(), rows);
+  protocol::borrow(s.contact_normals, normals.data(), normals.size());
   if (const dds_return_t rc = dds_write(answer_writers(m.scene).forces, &s); rc < 0)
     write_failed("ContactForces", rc);
 }

@@ -25,6 +25,8 @@ struct ForcesMessage {
   std::span<const double> forces;     ///< 3k, newtons
   std::span<const double> stiffness;  ///< 9k row-major df/dx blocks, or empty
   std::span<const double> damping;    ///< 9k row-major df/dv blocks, with stiffness
+  /// The contacts behind the forces (the object asked: ObjectParams::contacts), or null.
+  const ObjectContacts* contacts = nullptr;
   /// Frame of the object's state the forces were computed from (-1: rest positions).
   std::int64_t state_frame = -1;
   /// The computation that produced this answer, shared by every answer of one frame

@@ -193,9 +193,6 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   if (!std::isfinite(p.friction_velocity) || p.friction_velocity < 0.0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "params.friction_velocity must be finite and >= 0");
-  if (p.contacts)
-    return fail(ErrorCode::kUnsupported, t.scene, t.object,
-                "params.contacts: this service does not send contacts yet (docs/PROTOCOL.md)");
   if (p.self_contact)
     return fail(ErrorCode::kUnsupported, t.scene, t.object,
                 "params.self_contact: this service does not compute self-contact yet "
@@ -279,6 +276,7 @@ ObjectParams to_params(const WireParams& p) {
   out.friction = p.friction;
   out.friction_velocity = p.friction_velocity;
   out.blocks = p.blocks;
+  out.contacts = p.contacts;
   switch (p.depth) {
     case tetcollide_DEPTH_CFFM:
       out.depth = DepthMethod::kCffm;

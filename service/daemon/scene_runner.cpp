@@ -305,6 +305,7 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
     msg.forces = {};
     msg.stiffness = {};
     msg.damping = {};
+    msg.contacts = nullptr;
     // Rejected answers carry no forces, no computation id and no left-out list.
     const bool ok = msg.status == tetcollide_STATUS_OK;
     msg.answer_id = ok ? answer_id : 0;
@@ -319,6 +320,9 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
         msg.damping = row_major(f->damping, damping_rows_);
       }
     }
+    if (ok)
+      for (const ObjectContacts& c : output.contacts)
+        if (c.object == name) msg.contacts = &c;
     outbox_.publish_forces(msg);
   }
   // Objects the scene does not hold (rejected before or by the pipeline) get their

@@ -456,12 +456,12 @@ TEST_F(ServiceTest, FrictionAndPerObjectBlocks) {
   auto c = connect("friction");
   const client::Mesh floor = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
   const client::Mesh block = box_mesh(3, {-0.3, -0.3, 0.48}, {0.3, 0.3, 1.08});  // 2 cm in
+  // Both objects publish (the floor at rest, no velocities), so wait_forces waits for
+  // both answers.
   client::ObjectParams pf;
-  pf.is_static = true;
   pf.friction = 0.4;
   pf.response = client::ResponseKind::kPoint;
   client::ObjectParams pb = pf;
-  pb.is_static = false;
   pb.friction = 0.9;
   pb.blocks = true;
   c->register_object("floor", floor, pf);
@@ -480,7 +480,8 @@ TEST_F(ServiceTest, FrictionAndPerObjectBlocks) {
     SCOPED_TRACE(moving ? "sliding" : "no velocities");
     const std::int64_t frame = moving ? 0 : 1;
     c->publish_states(frame,
-                      {{"block", block.rest_positions,
+                      {{"floor", floor.rest_positions},
+                       {"block", block.rest_positions,
                         moving ? std::span<const double>(sliding) : std::span<const double>()}});
     const auto answer = c->wait_forces(frame, 10s);
     ASSERT_TRUE(answer);
@@ -509,6 +510,56 @@ TEST_F(ServiceTest, FrictionAndPerObjectBlocks) {
   EXPECT_FALSE(r.ok);
   EXPECT_EQ(r.code, static_cast<int>(StatusCode::kInvalidArgument)) << r.message;
   EXPECT_NE(r.message.find("params.friction"), std::string::npos) << r.message;
+}
+
+/// ObjectParams.contacts through the daemon: the block that asked gets the contact points
+/// behind its forces (its nodes in the floor and the floor's nodes in it), each point of the
+/// intruder at its barycentric place in the penetrated tet, 2 cm deep along +-z; the floor,
+/// which did not ask, gets none.
+TEST_F(ServiceTest, ContactsForTheObjectsThatAskForThem) {
+  auto c = connect("contacts");
+  const client::Mesh floor = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  const client::Mesh block = box_mesh(3, {-0.3, -0.3, 0.48}, {0.3, 0.3, 1.08});  // 2 cm in
+  client::ObjectParams pf;  // both publish: wait_forces waits for both answers
+  pf.response = client::ResponseKind::kPoint;
+  client::ObjectParams pb = pf;
+  pb.contacts = true;
+  c->register_object("floor", floor, pf);
+  c->register_object("block", block, pb);
+  ASSERT_TRUE(c->wait_registered("floor", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("block", 10s).ok);
+  c->publish_states(0, {{"floor", floor.rest_positions}, {"block", block.rest_positions}});
+  const auto answer = c->wait_forces(0, 10s);
+  ASSERT_TRUE(answer);
+  const client::ObjectForces* fb = answer->find("block");
+  const client::ObjectForces* ff = answer->find("floor");
+  ASSERT_TRUE(fb != nullptr && ff != nullptr);
+  EXPECT_TRUE(ff->contacts.empty());
+  ASSERT_FALSE(fb->contacts.empty());
+  const auto point = [](const client::Mesh& m, std::int32_t node) {
+    return Eigen::Vector3d(m.rest_positions[3 * static_cast<std::size_t>(node)],
+                           m.rest_positions[3 * static_cast<std::size_t>(node) + 1],
+                           m.rest_positions[3 * static_cast<std::size_t>(node) + 2]);
+  };
+  std::size_t intruding = 0;
+  for (const client::Contact& k : fb->contacts) {
+    EXPECT_EQ(k.other, "floor");
+    const client::Mesh& x = k.intrudes ? block : floor;
+    const client::Mesh& y = k.intrudes ? floor : block;
+    intruding += k.intrudes ? 1 : 0;
+    EXPECT_EQ(k.nodes[1], -1);  // point response: one node per row
+    ASSERT_GE(k.tet, 0);
+    ASSERT_LT(static_cast<std::size_t>(k.tet), y.tets.size() / 4);
+    Eigen::Vector3d in_y = Eigen::Vector3d::Zero();
+    for (std::size_t j = 0; j < 4; ++j)
+      in_y += k.barycentric[j] * point(y, y.tets[4 * static_cast<std::size_t>(k.tet) + j]);
+    EXPECT_LT((point(x, k.nodes[0]) - in_y).norm(), 1e-9);
+    EXPECT_NEAR(k.depth, 0.02, 1e-9);
+    EXPECT_NEAR(std::abs(k.normal[2]), 1.0, 1e-9);  // out through the floor's top or the
+    EXPECT_EQ(k.normal[2] > 0.0, k.intrudes);       // block's bottom
+  }
+  EXPECT_GT(intruding, 0u);
+  EXPECT_LT(intruding, fb->contacts.size());
 }
 
 TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {

@@ -278,3 +278,47 @@ def test_a_surface_object_is_pushed_out_of_the_box(client, box):
         client.register_surface("bad", nodes, np.zeros((2, 4), dtype=np.int32))
     with pytest.raises(ValueError, match=r"triangles\[1, 2\] = 99 is out of range"):
         client.register_surface("bad", nodes, np.array([[0, 1, 2], [1, 2, 99]]))
+
+
+def test_friction_blocks_and_contacts_on_request(client, ball, box):
+    """Protocol 3 from Python: a ball sinking into the box while sliding along x, friction
+    0.5 on both, the ball asking for its blocks and its contacts, the box for neither."""
+    assert client.register("box", box[0], box[1], static=True, friction=0.5) == 1
+    assert client.register("ball", ball[0], ball[1], friction=0.5, blocks=True,
+                           contacts=True) == 1
+    for name in ("box", "ball"):
+        client.wait_registered(name, 20.0).check(name)
+    x = ball_at(ball[0], 0.14)  # 1 cm into the box's top face
+    v = np.zeros_like(x)
+    v[:, 0] = 0.2
+    client.publish(0, {"ball": x, "box": box[0]}, {"ball": v})
+    answer = client.wait_forces(0, 20.0)
+    assert answer is not None and answer.ok
+    on_ball = answer["ball"]
+    k = len(on_ball.nodes)
+    assert k > 0
+    total = on_ball.forces.sum(axis=0)
+    assert total[2] > 0 and total[0] < 0  # pushed up, held back against the slide
+    assert on_ball.stiffness.shape == (k, 3, 3) and on_ball.damping.shape == (k, 3, 3)
+    assert np.allclose(on_ball.damping, on_ball.damping.transpose(0, 2, 1))
+    # (This daemon has pipeline.compute_stiffness on, so the box gets blocks too; that
+    # only the asking object gets them is ServiceTest.FrictionAndPerObjectBlocks.)
+    c = on_ball.contacts
+    n = len(c)
+    assert n > 0 and len(answer["box"].contacts) == 0
+    assert c.node.shape == (n,) and c.nodes.shape == (n, 2) and c.weights.shape == (n, 2)
+    assert c.tet.shape == (n,) and c.barycentric.shape == (n, 4) and c.depth.shape == (n,)
+    assert c.normal.shape == (n, 3) and c.intrudes.shape == (n,) and c.other.shape == (n,)
+    assert set(c.other) == {"box"}
+    assert (c.depth >= 0).all() and np.allclose(np.linalg.norm(c.normal, axis=1), 1.0)
+    assert np.allclose(c.barycentric.sum(axis=1), 1.0)
+    # A point of the ball inside the box: its place from the ball's nodes is its place
+    # from the box's tet.
+    mine = c.intrudes
+    assert mine.any()
+    second = np.where(c.nodes[mine, 1] >= 0, c.nodes[mine, 1], 0)  # -1: a point contact
+    point = (c.weights[mine, :1] * x[c.nodes[mine, 0]]
+             + c.weights[mine, 1:] * x[second] * (c.nodes[mine, 1:] >= 0))
+    corners = box[0][box[1][c.tet[mine]]]  # (m, 4, 3)
+    inside = np.einsum("mk,mkj->mj", c.barycentric[mine], corners)
+    assert np.allclose(point, inside, atol=1e-9)

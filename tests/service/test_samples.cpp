@@ -86,6 +86,18 @@ TEST(Samples, ParamsConvert) {
   w.response = tetcollide_RESPONSE_POINT;
   EXPECT_EQ(to_params(w).depth, DepthMethod::kCffm);
   EXPECT_EQ(to_params(w).response, ResponseKind::kPoint);
+  // Protocol 3's parameters; a version-2 sample has them at 0 / false.
+  EXPECT_EQ(p.friction, 0.0);
+  EXPECT_FALSE(p.blocks || p.contacts);
+  w.friction = 0.4;
+  w.friction_velocity = 2e-3;
+  w.blocks = true;
+  w.contacts = true;
+  const ObjectParams q = to_params(w);
+  EXPECT_EQ(q.friction, 0.4);
+  EXPECT_EQ(q.friction_velocity, 2e-3);
+  EXPECT_TRUE(q.blocks);
+  EXPECT_TRUE(q.contacts);
 }
 
 struct TopologyCase {
@@ -154,7 +166,17 @@ INSTANTIATE_TEST_SUITE_P(
         TopologyCase{"depth_enum", [](TopologyData& d, Limits&) { d.params.depth = 3; },
                      ErrorCode::kInvalidArgument, "params.depth 3"},
         TopologyCase{"response_enum", [](TopologyData& d, Limits&) { d.params.response = -1; },
-                     ErrorCode::kInvalidArgument, "params.response -1"}),
+                     ErrorCode::kInvalidArgument, "params.response -1"},
+        TopologyCase{"friction_neg", [](TopologyData& d, Limits&) { d.params.friction = -0.1; },
+                     ErrorCode::kInvalidArgument, "params.friction must be"},
+        TopologyCase{"friction_nan", [](TopologyData& d, Limits&) { d.params.friction = kNan; },
+                     ErrorCode::kInvalidArgument, "params.friction must be"},
+        TopologyCase{"friction_velocity_inf",
+                     [](TopologyData& d, Limits&) { d.params.friction_velocity = kInf; },
+                     ErrorCode::kInvalidArgument, "params.friction_velocity"},
+        TopologyCase{"self_contact_reserved",
+                     [](TopologyData& d, Limits&) { d.params.self_contact = true; },
+                     ErrorCode::kUnsupported, "params.self_contact"}),
     [](const ::testing::TestParamInfo<TopologyCase>& p) { return std::string(p.param.name); });
 
 TEST(Samples, GoodSurfaceConverts) {

@@ -839,6 +839,78 @@ TEST(Pipeline, FrictionOpposesTheSlipAndTheReactionBalancesIt) {
   EXPECT_LT(slip_damping, 0.0);
 }
 
+/// The contacts behind the forces (ObjectParams::contacts), point and segment response:
+/// every row's point of the intruder is its point in the penetrated tet, the point
+/// contacts' depths and directions are those of the audit, asking changes no force, and
+/// only the object that asked gets rows.
+TEST(Pipeline, ContactRowsAreThePointsBehindTheForces) {
+  for (const ResponseKind kind : {ResponseKind::kPoint, ResponseKind::kSegment}) {
+    SCOPED_TRACE(response_kind_name(kind));
+    TetMesh b = load_scaled("box.msh", kOne);
+    b.positions.colwise() += Eigen::Vector3d(0.05, 0.03, 0.295);
+    const TetMesh a = load_scaled("box.msh", kOne);
+    const auto run = [&](bool contacts) {
+      ObjectParams pa, pb;
+      pa.response = pb.response = kind;
+      pb.contacts = contacts;
+      PipelineConfig config;
+      config.record_contacts = true;
+      Pipeline pipeline(config);
+      EXPECT_TRUE(pipeline.set_topology("a", 1, a, pa).ok());
+      EXPECT_TRUE(pipeline.set_topology("b", 1, b, pb).ok());
+      std::vector<FrameObjectInput> states = {state_of("a", a, 1), state_of("b", b, 1)};
+      return pipeline.run_frame(0, states);
+    };
+    const FrameOutput plain = run(false), asked = run(true);
+    EXPECT_TRUE(plain.contacts.empty());
+    expect_same_forces(asked, plain);
+    ASSERT_EQ(asked.contacts.size(), 1u);
+    const ObjectContacts& oc = asked.contacts[0];
+    EXPECT_EQ(oc.object, "b");
+    ASSERT_EQ(oc.others, std::vector<std::string>{"a"});
+    ASSERT_FALSE(oc.rows.empty());
+    std::size_t intruding = 0, penetrated = 0;
+    for (const ObjectContacts::Row& row : oc.rows) {
+      const ContactRow& c = row.contact;
+      const TetMesh& x = row.intrudes ? b : a;  // the intruder
+      const TetMesh& y = row.intrudes ? a : b;  // the penetrated object
+      ++(row.intrudes ? intruding : penetrated);
+      ASSERT_GE(c.tet, 0);
+      ASSERT_LT(static_cast<std::size_t>(c.tet), y.tets.size());
+      Eigen::Vector3d in_x = c.weights[0] * x.positions.col(c.nodes[0]);
+      if (c.nodes[1] >= 0) in_x += c.weights[1] * x.positions.col(c.nodes[1]);
+      Eigen::Vector3d in_y = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k) in_y += c.bary[k] * y.positions.col(y.tets[c.tet][k]);
+      EXPECT_LT((in_x - in_y).norm(), 1e-9);
+      EXPECT_NEAR(c.bary.sum(), 1.0, 1e-12);
+      EXPECT_GE(c.bary.minCoeff(), 0.0);
+      EXPECT_GE(c.depth, 0.0);
+      EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12);
+      if (kind == ResponseKind::kPoint) {
+        EXPECT_EQ(c.nodes[1], -1);
+        // The audit of the same node: the same depth and direction, bit for bit.
+        const std::string intruder = row.intrudes ? "b" : "a";
+        const auto audit = std::find_if(asked.point_contacts.begin(), asked.point_contacts.end(),
+                                        [&](const FramePointContact& p) {
+                                          return p.object == intruder && p.node == c.nodes[0];
+                                        });
+        ASSERT_NE(audit, asked.point_contacts.end());
+        EXPECT_EQ(audit->depth, c.depth);
+        EXPECT_EQ(audit->normal, c.normal);
+      } else {
+        EXPECT_GE(c.nodes[1], 0);  // a piece of an edge: both ends, weights summing to 1
+        EXPECT_NEAR(c.weights[0] + c.weights[1], 1.0, 1e-15);
+      }
+    }
+    EXPECT_GT(intruding, 0u);  // b's features in a, and a's in b
+    EXPECT_GT(penetrated, 0u);
+    if (kind == ResponseKind::kPoint)
+      EXPECT_EQ(oc.rows.size(), asked.point_contacts.size());
+    else
+      EXPECT_EQ(oc.rows.size() % 2, 0u);  // two rows per piece
+  }
+}
+
 TEST(ContactDepth, FaceOnFaceWithALateralOffsetPushesAlongTheNormal) {
   // Issue 12's case: two copies of box.msh, the second 5 mm into the first's top and
   // offset sideways by (5, 3) cm. The interpolated depths gave a net sideways force of

@@ -153,6 +153,7 @@ ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
   const auto eps = [](double v) { return v > 0.0 ? v : kDefaultFrictionVelocity; };
   o.friction_velocity = std::max(eps(a.friction_velocity), eps(b.friction_velocity));
   if (a.blocks || b.blocks) o.stiffness_mode = StiffnessMode::kLumped;
+  o.report_contacts = a.contacts || b.contacts;
   return o;
 }
 
@@ -457,6 +458,19 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   // 5. Response per pair, summed per object in pair order (deterministic).
   t0 = Clock::now();
   std::map<std::string, ObjectForces> totals;
+  std::map<std::string, ObjectContacts> contact_rows;  // objects that asked for them
+  // The rows of a pair for object `self` (one of the pair), if it asked for them.
+  const auto add_rows = [&](const SceneObject& self, const SceneObject& other, bool self_is_a,
+                            const std::vector<ContactRow>& rows) {
+    if (!self.params.contacts || rows.empty()) return;
+    ObjectContacts& oc = contact_rows[self.name];
+    oc.object = self.name;
+    const auto at = std::find(oc.others.begin(), oc.others.end(), other.name);
+    const auto index = static_cast<std::uint32_t>(at - oc.others.begin());
+    if (at == oc.others.end()) oc.others.push_back(other.name);
+    for (const ContactRow& row : rows)
+      oc.rows.push_back({index, row.intruder_is_a == self_is_a, row});
+  };
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     if (contacts[p].empty()) continue;
     SceneObject& a = *list[pairs[p].first];
@@ -479,7 +493,10 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
                                     c.intruder_is_a ? b.name : a.name, c.node, c.depth, c.normal});
     if (!response.a.nodes.empty()) add_object_forces(totals[a.name], response.a);
     if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
+    add_rows(a, b, true, response.contacts);
+    add_rows(b, a, false, response.contacts);
   }
+  for (auto& [name, rows] : contact_rows) out.contacts.push_back(std::move(rows));
   for (auto& [name, forces] : totals) {
     const ObjectParams& params = objects.at(name)->params;
     if (!params.blocks && !impl_->config.compute_stiffness) {  // made for the other object

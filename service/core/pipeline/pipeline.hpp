@@ -89,6 +89,20 @@ struct FramePointContact {
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
 };
 
+/// The contacts behind one object's forces (ObjectParams::contacts): every contact point
+/// in which the object is the intruding or the penetrated one, in pair order (pairs by
+/// object name) and within a pair in the response's order.
+struct ObjectContacts {
+  std::string object;
+  std::vector<std::string> others;  ///< the other objects of the rows, by first appearance
+  struct Row {
+    std::uint32_t other = 0;  ///< index into `others`
+    bool intrudes = true;     ///< this object's point is inside the other's tet
+    ContactRow contact;       ///< nodes of the intruder, tet of the penetrated object
+  };
+  std::vector<Row> rows;
+};
+
 struct FrameOutput {
   std::int64_t frame = 0;
   std::vector<ObjectForces> forces;  ///< one entry per object with a non-zero force, by name
@@ -100,6 +114,9 @@ struct FrameOutput {
   std::vector<std::string> left_out;
   /// With PipelineConfig::record_contacts: pairs in order, A's nodes in B first.
   std::vector<FramePointContact> point_contacts;
+  /// One entry per object that asked for its contacts (ObjectParams::contacts) and has
+  /// any this frame, by name.
+  std::vector<ObjectContacts> contacts;
   /// Nodes whose depth this frame's depth maps settled, per object in contact (by name;
   /// a static object's full map counts on the frame that computes it, else 0).
   std::vector<std::pair<std::string, std::size_t>> settled_by_object;

@@ -29,6 +29,9 @@ struct ObjectParams {
   /// Return this object's 3x3 blocks df/dx and df/dv with its forces (PipelineConfig::
   /// compute_stiffness returns them for every object).
   bool blocks = false;
+  /// Return the contacts behind this object's forces (FrameOutput::contacts): for
+  /// position-based and constraint solvers that build their own constraints.
+  bool contacts = false;
 };
 
 }  // namespace tc

@@ -384,6 +384,9 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
   }
   if (!(m > 0.0)) return r;  // not in, or separating faster than the penalty pushes
   r.active = true;
+  r.points = 1;
+  r.bary[0] = beta;
+  r.point_depth[0] = depth;
   Vec3 f = m * dir.n;
   r.push[0] = f.norm();
   Friction friction;
@@ -517,6 +520,10 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   m2 = std::max(m2, 0.0);
   if (!(m1 > 0.0 || m2 > 0.0)) return r;
   r.active = true;
+  r.points = 2;
+  r.lambda = {l1, l2};
+  r.bary = {b1, b2};
+  r.point_depth = {std::max(d1, 0.0), std::max(d2, 0.0)};
   Vec3 f1 = clipped * (2.0 * m1 + m2) / 6.0 * dir.n;
   Vec3 f2 = clipped * (m1 + 2.0 * m2) / 6.0 * dir.n;
   Friction fr1, fr2;

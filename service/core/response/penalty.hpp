@@ -104,6 +104,9 @@ struct ResponseOptions {
   DepthEvaluation evaluation = DepthEvaluation::kNearestFace;
   /// Fill PairResponse::point_contacts (an audit of depths and directions).
   bool record_contacts = false;
+  /// Fill PairResponse::contacts: the contacts behind the forces, for clients that build
+  /// their own constraints (ObjectParams::contacts, docs/PROTOCOL.md "Contacts").
+  bool report_contacts = false;
   /// A pair whose summed per-node forces fall below this fraction of the summed pushes
   /// on the intruding nodes, with pushes both ways, is a symmetric overlap and is
   /// answered along one separating direction (docs/RESPONSE.md); 0 = never.
@@ -179,6 +182,15 @@ struct ContactResult {
   /// Magnitude of the normal push on node[i] (i < intruder_nodes), N: the force without
   /// its friction.
   std::array<double, 2> push{};
+  /// The points behind the push, for reports (ResponseOptions::report_contacts): one for
+  /// a point contact, the two clip points of a segment piece. Point i lies at
+  /// edge parameter lambda[i] on the intruding edge (x = a + lambda (b - a); 0 for a
+  /// point contact) and at barycentric coordinates bary[i] in the penetrated tet (clamped
+  /// to >= 0 and normalised, as the reactions use them), depth[i] metres deep.
+  int points = 0;
+  std::array<double, 2> lambda{};
+  std::array<Eigen::Vector4d, 2> bary{Eigen::Vector4d::Zero(), Eigen::Vector4d::Zero()};
+  std::array<double, 2> point_depth{};
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit push-out direction of X
   double depth = 0.0;                                ///< deepest penetration used, metres
 };

@@ -309,6 +309,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
   out.used_a_in_b = out.used_b_in_a = ResponseKind::kPoint;
   out.stats = ResponseStats{};
   out.point_contacts.clear();
+  out.contacts.clear();
   if (Status s = validate_options(options); !s) return s;
   if (Status s = validate_object(a, "A"); !s) return s;
   if (Status s = validate_object(b, "B"); !s) return s;
@@ -382,6 +383,21 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     if (r.active && !r.skipped)
       out.point_contacts.push_back({intruder_is_a, c.node, c.tet, r.depth, r.normal, r.fallback});
   };
+  // The rows of ResponseOptions::report_contacts: the points behind one contact's forces.
+  const auto report = [&](Index tet, const ContactResult& r, bool intruder_is_a) {
+    if (!r.active || r.skipped) return;
+    for (int i = 0; i < r.points; ++i) {
+      ContactRow row;
+      row.intruder_is_a = intruder_is_a;
+      row.nodes = {r.node[0], r.intruder_nodes == 2 ? r.node[1] : Index{-1}};
+      row.weights = {1.0 - r.lambda[i], r.lambda[i]};
+      row.tet = tet;
+      row.bary = r.bary[i];
+      row.depth = r.point_depth[i];
+      row.normal = r.normal;
+      out.contacts.push_back(row);
+    }
+  };
   const auto accumulate = [&](const ContactResult& r, bool segment, NodeSums& xs, NodeSums& ys) {
     if (r.skipped) {
       ++st.skipped;
@@ -444,6 +460,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
         }
       }
       accumulate(*used, segment, xs, ys);
+      if (options.report_contacts) report(c.tet, *used, sign > 0.0);
       if constexpr (std::is_same_v<std::decay_t<decltype(c)>, IntrudingNode>)
         if (options.record_contacts) record(c, *used, sign > 0.0);
     };
@@ -509,6 +526,7 @@ Status ResponseAccumulator::compute(const ResponseObject& a, const ResponseObjec
     const ResponseKind used_ab = out.used_a_in_b, used_ba = out.used_b_in_a;
     st = ResponseStats{};
     out.point_contacts.clear();
+    out.contacts.clear();
     out.used_a_in_b = used_ab;
     out.used_b_in_a = used_ba;
     st.symmetric_pairs = 1;

@@ -62,6 +62,21 @@ struct PointContactRecord {
   Fallback fallback = Fallback::kNone;
 };
 
+/// One point of a contact behind the forces (ResponseOptions::report_contacts): a point
+/// of the intruding object, wa x_a + wb x_b over its nodes (a point contact: its node,
+/// weights (1, 0), b = -1; a segment piece: two rows, the piece's ends on edge (a, b)),
+/// lying at barycentric coordinates `bary` in tet `tet` of the penetrated object, `depth`
+/// metres deep, pushed out along the unit `normal`.
+struct ContactRow {
+  bool intruder_is_a = true;  ///< the point belongs to A (inside B), else to B (inside A)
+  std::array<Index, 2> nodes{-1, -1};
+  std::array<double, 2> weights{1.0, 0.0};
+  Index tet = -1;
+  Eigen::Vector4d bary = Eigen::Vector4d::Zero();
+  double depth = 0.0;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+};
+
 /// The response of one pair (A, B).
 struct PairResponse {
   ObjectForces a;  ///< forces on A's nodes, sorted by node (object name: the caller's)
@@ -74,6 +89,9 @@ struct PairResponse {
   /// contacts of that direction's intruding nodes are evaluated for the record only
   /// (they add no force): the rows are the same for either response.
   std::vector<PointContactRecord> point_contacts;
+  /// With ResponseOptions::report_contacts: a row per active point contact and two per
+  /// active segment piece, A's features in B first, in contact order.
+  std::vector<ContactRow> contacts;
 };
 
 /// What kAuto measures for the features of X entering Y.

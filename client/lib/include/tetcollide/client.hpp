@@ -18,6 +18,7 @@
 // object the service rejected) are return values.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -90,6 +91,27 @@ struct ObjectParams {
   /// Answers carry this object's df/dx (`stiffness`) and df/dv (`damping`) blocks, for an
   /// implicit integrator.
   bool blocks = false;
+  /// Answers carry the contacts behind this object's forces (ObjectForces::contacts), for
+  /// position-based and constraint solvers (docs/PROTOCOL.md "Contacts").
+  bool contacts = false;
+};
+
+/// One point of a contact behind the forces (ObjectParams::contacts): the point
+/// weights[0] x[nodes[0]] + weights[1] x[nodes[1]] of the intruding object lies inside
+/// tet `tet` of the penetrated object at barycentric coordinates `barycentric`, `depth`
+/// metres deep; `normal` is the unit direction that pushes the intruder out. A point
+/// contact has nodes {node, -1} and weights {1, 0}; a piece of an intruding edge (segment
+/// response) gives two such points, its ends on the edge. The forces of the answer are the
+/// penalty response to these points (docs/RESPONSE.md).
+struct Contact {
+  std::string other;  ///< the other object of the contact
+  bool intrudes = true;  ///< true: this object's point is in `other`; false: other's point in this
+  std::array<std::int32_t, 2> nodes{-1, -1};  ///< the intruding object's nodes
+  std::array<double, 2> weights{1.0, 0.0};
+  std::int32_t tet = -1;  ///< the penetrated object's tet
+  std::array<double, 4> barycentric{};
+  double depth = 0.0;  ///< metres, >= 0
+  std::array<double, 3> normal{};
 };
 
 /// A tetrahedral mesh as flat arrays.
@@ -123,6 +145,9 @@ struct ObjectForces {
   /// 9k row-major df/dv blocks (N s/m): the contact damping's and friction's; present
   /// with `stiffness` (protocol version 3; empty from older services).
   std::vector<double> damping;
+  /// The contacts behind the forces when this object asked (ObjectParams::contacts),
+  /// in the service's order; empty otherwise.
+  std::vector<Contact> contacts;
   /// Frame of this object's state the forces were computed from (== frame for answers
   /// this client waits for; -1: rest positions). See ContactForces.state_frame.
   std::int64_t state_frame = -1;
