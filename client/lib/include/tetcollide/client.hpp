@@ -104,7 +104,7 @@ struct ObjectParams {
 /// response) gives two such points, its ends on the edge. The forces of the answer are the
 /// penalty response to these points (docs/RESPONSE.md).
 struct Contact {
-  std::string other;  ///< the other object of the contact
+  std::string other;     ///< the other object of the contact
   bool intrudes = true;  ///< true: this object's point is in `other`; false: other's point in this
   std::array<std::int32_t, 2> nodes{-1, -1};  ///< the intruding object's nodes
   std::array<double, 2> weights{1.0, 0.0};
