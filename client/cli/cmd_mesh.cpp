@@ -1,8 +1,16 @@
-// `tetcollide mesh info FILE [--json]` and `tetcollide mesh convert IN OUT.vtu`.
+// `tetcollide mesh info FILE [--json]` and `tetcollide mesh convert IN OUT`.
 // `mesh info` reports a tet mesh or, for .stl, .obj and a .msh with triangles and no
-// tets, a triangle surface (docs/SURFACES.md).
+// tets, a triangle surface (docs/SURFACES.md). `mesh convert` writes the format OUT's
+// extension names (case-insensitive): `.vtu` (VTK XML for ParaView, with the fields
+// `boundary` and `quality`), `.node` or `.ele` (a TetGen pair: both OUT's stem.node and
+// stem.ele, numbered from 0 when the ids are 0..n-1, else from 1), `.msh` (Gmsh 4.1
+// ASCII, node ids as tags). Positions are written so that they read back bit for bit.
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "cli_common.hpp"
 #include "core/io/mesh_io.hpp"
@@ -128,22 +136,89 @@ int run_info(const MeshInfoArgs& args) {
   return kExitOk;
 }
 
+/// What `mesh convert` writes, from OUT's extension.
+enum class ConvertFormat { kVtu, kTetGen, kGmsh };
+
+/// The format OUT's extension (case-insensitive) names, or nullopt.
+std::optional<ConvertFormat> convert_format(const std::string& output) {
+  std::string ext = std::filesystem::path(output).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext == ".vtu") return ConvertFormat::kVtu;
+  if (ext == ".node" || ext == ".ele") return ConvertFormat::kTetGen;
+  if (ext == ".msh") return ConvertFormat::kGmsh;
+  return std::nullopt;
+}
+
+/// Writes the mesh as VTK XML with a per-node `boundary` flag and a per-tet `quality`.
+Status write_convert_vtu(const std::string& output, const TetMesh& mesh) {
+  std::vector<VtuField> cells(1);
+  cells[0].name = "quality";
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  std::vector<VtuField> points(1);
+  points[0].name = "boundary";
+  for (const auto flag : topo.is_boundary_node) points[0].values.push_back(flag);
+  for (const Tet& t : mesh.tets) cells[0].values.push_back(tet_quality(mesh.positions, t));
+  return write_vtu(output, mesh, points, cells);
+}
+
+/// Writes Gmsh 4.1 ASCII. Gmsh tags are positive: ids that are not all positive (a
+/// 0-based TetGen file, a Gmsh file using the reserved tag 0) become 1..n in node order,
+/// with a note on stderr.
+Status write_convert_gmsh(const std::string& output, const TetMesh& mesh) {
+  if (std::all_of(mesh.node_ids.begin(), mesh.node_ids.end(),
+                  [](std::int64_t id) { return id > 0; }))
+    return write_gmsh(output, mesh, GmshFormat::kMsh41Ascii);
+  TetMesh renumbered = mesh;
+  for (std::size_t i = 0; i < renumbered.node_ids.size(); ++i)
+    renumbered.node_ids[i] = static_cast<std::int64_t>(i) + 1;
+  std::fprintf(stderr, "note: node ids renumbered 1..%d in %s (Gmsh node tags are positive)\n",
+               mesh.num_nodes(), output.c_str());
+  return write_gmsh(output, renumbered, GmshFormat::kMsh41Ascii);
+}
+
+/// True when the node ids are 1..n in node order (TetGen's 1-based numbering).
+bool ids_from_one(const TetMesh& mesh) {
+  for (std::size_t i = 0; i < mesh.node_ids.size(); ++i)
+    if (mesh.node_ids[i] != static_cast<std::int64_t>(i) + 1) return false;
+  return true;
+}
+
 int run_convert(const MeshConvertArgs& args) {
+  const std::optional<ConvertFormat> format = convert_format(args.output);
+  if (!format)
+    return report_error(args.output +
+                            ": unknown output extension (expected .vtu, .node or .ele for a "
+                            "TetGen pair, or .msh)",
+                        kExitUsage);
   auto mesh = read_mesh(args.input);
   if (!mesh) return report_error(mesh.error());
   const ValidationReport report = validate_mesh(*mesh);
   if (report.structurally_invalid())
     return report_error(Error{ErrorCode::kInvalidMesh, args.input + ": " + report.summary()});
-  std::vector<VtuField> cells(1);
-  cells[0].name = "quality";
-  const Topology topo = build_topology(mesh->tets, mesh->num_nodes());
-  std::vector<VtuField> points(1);
-  points[0].name = "boundary";
-  for (const auto flag : topo.is_boundary_node) points[0].values.push_back(flag);
-  for (const Tet& t : mesh->tets) cells[0].values.push_back(tet_quality(mesh->positions, t));
-  const Status st = write_vtu(args.output, *mesh, points, cells);
+  std::string written = args.output;
+  Status st;
+  switch (*format) {
+    case ConvertFormat::kVtu:
+      st = write_convert_vtu(args.output, *mesh);
+      break;
+    case ConvertFormat::kTetGen: {
+      const std::string stem = tetgen_stem(args.output).string();
+      written = stem + ".node and " + stem + ".ele";
+      if (tetgen_base(*mesh) == 1 && !ids_from_one(*mesh))
+        std::fprintf(stderr,
+                     "note: node ids renumbered 1..%d (TetGen numbers points "
+                     "consecutively)\n",
+                     mesh->num_nodes());
+      st = write_tetgen(args.output, *mesh);
+      break;
+    }
+    case ConvertFormat::kGmsh:
+      st = write_convert_gmsh(args.output, *mesh);
+      break;
+  }
   if (!st) return report_error(st.error().message, kExitFailure);
-  std::fprintf(stderr, "wrote %s (%d nodes, %d tets)\n", args.output.c_str(), mesh->num_nodes(),
+  std::fprintf(stderr, "wrote %s (%d nodes, %d tets)\n", written.c_str(), mesh->num_nodes(),
                mesh->num_tets());
   return kExitOk;
 }
@@ -167,9 +242,15 @@ void add_mesh_command(CLI::App& app, Context& ctx) {
   info->callback([&ctx, info_args] { ctx.exit_code = run_info(*info_args); });
 
   auto convert_args = std::make_shared<MeshConvertArgs>();
-  auto* convert = mesh->add_subcommand("convert", "Write a mesh as VTK XML (.vtu) for ParaView");
+  auto* convert = mesh->add_subcommand(
+      "convert",
+      "Write a mesh in the format OUT's extension names: VTK XML (.vtu) for ParaView, a TetGen "
+      "pair (.node or .ele: writes both), Gmsh 4.1 ASCII (.msh)");
   convert->add_option("IN", convert_args->input, "Mesh file (.msh, .node/.ele)")->required();
-  convert->add_option("OUT", convert_args->output, "Output .vtu file")->required();
+  convert
+      ->add_option("OUT", convert_args->output,
+                   "Output file: .vtu, .node or .ele (OUT's stem .node and .ele), .msh")
+      ->required();
   convert->callback([&ctx, convert_args] { ctx.exit_code = run_convert(*convert_args); });
 }
 

@@ -1,6 +1,6 @@
 // Mesh file layer: Gmsh 2.2/4.1 (ASCII and binary) and TetGen readers on files written
-// by Gmsh and TetGen themselves and by hand, every broken file, the Gmsh and VTU
-// writers on round trips, and a seeded sweep of truncated and corrupted files.
+// by Gmsh and TetGen themselves and by hand, every broken file, the Gmsh, TetGen and
+// VTU writers on round trips, and a seeded sweep of truncated and corrupted files.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -12,6 +12,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -672,6 +674,141 @@ TEST(GmshWriter, RejectsWhatGmshCannotHold) {
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().code, ErrorCode::kIo);
   EXPECT_THAT(st.error().message, HasSubstr("/nonexistent-dir/x.msh"));
+}
+
+// ---- TetGen writer round trips ------------------------------------------------------
+
+/// Same node ids, same tets, and positions equal bit for bit (-0.0 is not 0.0 here).
+void expect_identical_mesh(const TetMesh& a, const TetMesh& b) {
+  EXPECT_EQ(a.node_ids, b.node_ids);
+  ASSERT_EQ(a.positions.cols(), b.positions.cols());
+  EXPECT_EQ(std::memcmp(a.positions.data(), b.positions.data(),
+                        sizeof(double) * static_cast<std::size_t>(a.positions.size())),
+            0);
+  EXPECT_EQ(a.tets, b.tets);
+}
+
+/// Coordinates that only the shortest round-trip form (or 17 digits) keeps: -0, the
+/// smallest subnormal, the largest double, 0.1, 1/3, huge offsets, tiny scales.
+TetMesh awkward_numbers_mesh() {
+  TetMesh mesh = test::cube_five_tets(1e-6);
+  const double values[] = {-0.0,
+                           std::numeric_limits<double>::denorm_min(),
+                           std::numeric_limits<double>::max(),
+                           -std::numeric_limits<double>::min(),
+                           0.1,
+                           1.0 / 3.0,
+                           -1e6 + 1e-9,
+                           std::nextafter(1.0, 2.0),
+                           6.02214076e23,
+                           -2.718281828459045e-300};
+  for (Eigen::Index i = 0; i < mesh.positions.size(); ++i)
+    mesh.positions.data()[i] =
+        values[static_cast<std::size_t>(i) % std::size(values)] * (i % 3 == 0 ? 1.0 : -1.0);
+  return mesh;
+}
+
+TetMesh zero_based(TetMesh mesh) {
+  std::iota(mesh.node_ids.begin(), mesh.node_ids.end(), std::int64_t{0});
+  return mesh;
+}
+
+TEST(TetGenWriter, WriteThenReadIsExact) {
+  const TetMesh empty;
+  TetMesh nodes_only = test::single_tet();
+  nodes_only.tets.clear();
+  const TetMesh box = test::structured_box(4, 3, 2, Eigen::Vector3d(-1e6, 0.1, 3.0),
+                                           Eigen::Vector3d(-1e6 + 1e-3, 0.7, 1e6));
+  for (const TetMesh& mesh :
+       {box, zero_based(box), awkward_numbers_mesh(), zero_based(awkward_numbers_mesh()),
+        test::cube_five_tets(1e-6), nodes_only, zero_based(nodes_only), empty}) {
+    auto text = format_tetgen(mesh);
+    ASSERT_TRUE(text.has_value()) << text.error().message;
+    auto back = read_tetgen_buffers(text->node, text->ele, "roundtrip");
+    ASSERT_TRUE(back.has_value()) << back.error().message << "\n" << text->node << text->ele;
+    expect_identical_mesh(*back, mesh);
+  }
+}
+
+TEST(TetGenWriter, TheTextIsWhatTetGenWrites) {
+  auto text = format_tetgen(test::single_tet());
+  ASSERT_TRUE(text.has_value()) << text.error().message;
+  EXPECT_EQ(text->node, "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+  EXPECT_EQ(text->ele, "1 4 0\n1 1 2 3 4\n");
+  text = format_tetgen(zero_based(test::single_tet()));
+  ASSERT_TRUE(text.has_value()) << text.error().message;
+  EXPECT_EQ(text->node, "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+  EXPECT_EQ(text->ele, "1 4 0\n0 0 1 2 3\n");
+}
+
+TEST(TetGenWriter, IdsTetGenCannotHoldBecomeOneToN) {
+  const TetMesh mesh = scattered_box();
+  EXPECT_EQ(tetgen_base(mesh), 1);
+  auto text = format_tetgen(mesh);
+  ASSERT_TRUE(text.has_value()) << text.error().message;
+  auto back = read_tetgen_buffers(text->node, text->ele, "scattered");
+  ASSERT_TRUE(back.has_value()) << back.error().message;
+  EXPECT_EQ(back->node_ids, iota_ids(1, mesh.node_ids.size()));
+  EXPECT_EQ(std::memcmp(back->positions.data(), mesh.positions.data(),
+                        sizeof(double) * static_cast<std::size_t>(mesh.positions.size())),
+            0);
+  EXPECT_EQ(back->tets, mesh.tets);
+  // Ids 0..n-1 in another order are not 0-based numbering either.
+  TetMesh swapped = zero_based(test::single_tet());
+  std::swap(swapped.node_ids[0], swapped.node_ids[1]);
+  EXPECT_EQ(tetgen_base(swapped), 1);
+  EXPECT_EQ(tetgen_base(zero_based(test::single_tet())), 0);
+  EXPECT_EQ(tetgen_base(TetMesh{}), 0);
+}
+
+TEST(TetGenWriter, FilesOfTetGenAndGmshRoundTrip) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("tc_test_tetgen_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  // A 0-based file TetGen wrote, a 1-based one, and a Gmsh file (tags 1..45).
+  for (const char* name : {"tetgen_cubez.1.node", "tetgen_cube.1.ele", "box_v41_bin.msh"}) {
+    const TetMesh mesh = read_ok(name);
+    // OUT given as the .node, the .ele or the stem: the same two files.
+    for (const char* out : {"copy.node", "copy.ELE", "copy"}) {
+      std::filesystem::remove(dir / "copy.node");
+      std::filesystem::remove(dir / "copy.ele");
+      const Status st = write_tetgen(dir / out, mesh);
+      ASSERT_TRUE(st.ok()) << st.error().message;
+      EXPECT_TRUE(std::filesystem::exists(dir / "copy.node")) << name << " " << out;
+      EXPECT_TRUE(std::filesystem::exists(dir / "copy.ele")) << name << " " << out;
+      for (const char* back_name : {"copy.node", "copy.ele"}) {
+        auto back = read_mesh(dir / back_name);
+        ASSERT_TRUE(back.has_value()) << back.error().message;
+        expect_identical_mesh(*back, mesh);
+      }
+    }
+  }
+  EXPECT_EQ(tetgen_stem("a/b.1.node"), std::filesystem::path("a/b.1"));
+  EXPECT_EQ(tetgen_stem("a/b.1.Ele"), std::filesystem::path("a/b.1"));
+  EXPECT_EQ(tetgen_stem("a/b.1"), std::filesystem::path("a/b.1"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(TetGenWriter, RejectsWhatTheReaderWouldRefuse) {
+  TetMesh mesh = test::single_tet();
+  mesh.positions(1, 3) = std::numeric_limits<double>::infinity();
+  auto text = format_tetgen(mesh);
+  ASSERT_FALSE(text.has_value());
+  EXPECT_EQ(text.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(text.error().message, "node 3 has a non-finite coordinate");
+  mesh = test::single_tet();
+  mesh.tets[0][3] = 4;
+  EXPECT_EQ(format_tetgen(mesh).error().message, "tet 0 refers to node 4, outside [0, 4)");
+  mesh = test::single_tet();
+  mesh.node_ids.pop_back();
+  EXPECT_EQ(format_tetgen(mesh).error().message, "mesh has 3 node ids for 4 nodes");
+  Status st = write_tetgen("/nonexistent-dir/x.ele", mesh);
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().message, "/nonexistent-dir/x.node: mesh has 3 node ids for 4 nodes");
+  st = write_tetgen("/nonexistent-dir/x.ele", test::single_tet());
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, ErrorCode::kIo);
+  EXPECT_EQ(st.error().message, "/nonexistent-dir/x.node: cannot open file for writing");
 }
 
 TEST(GmshElementTypes, NodeCounts) {

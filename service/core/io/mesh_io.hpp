@@ -69,6 +69,31 @@ Expected<std::string> format_gmsh(const TetMesh& mesh, GmshFormat format);
 /// Writes format_gmsh() to a file.
 Status write_gmsh(const std::filesystem::path& path, const TetMesh& mesh, GmshFormat format);
 
+/// The two texts of a TetGen pair, as format_tetgen() makes them.
+struct TetGenText {
+  std::string node;  ///< the .node file: "<n> 3 0 0", then "<index> x y z" per node
+  std::string ele;   ///< the .ele file: "<m> 4 0", then "<index> n1 n2 n3 n4" per tet
+};
+
+/// Numbering base of a written TetGen pair: 0 when the node ids are exactly 0..n-1 (a
+/// 0-based TetGen file read back), else 1. TetGen numbers points consecutively from the
+/// base, so other ids than base..base+n-1 are not kept.
+std::int64_t tetgen_base(const TetMesh& mesh);
+
+/// The mesh as the texts of a TetGen pair (no attributes, no markers), numbered from
+/// tetgen_base(mesh); coordinates in the shortest form that reads back to the same
+/// double, so read_tetgen_buffers() gives the same positions bit for bit and the same
+/// tets (and the same node ids when they are base..base+n-1). Errors (kInvalidArgument)
+/// when node_ids does not hold n ids, a coordinate is not finite, or a tet refers to a
+/// node outside [0, n).
+Expected<TetGenText> format_tetgen(const TetMesh& mesh);
+/// `path` without a `.node` or `.ele` extension (case-insensitive), else `path` itself:
+/// the stem the TetGen reader and writer append `.node` and `.ele` to.
+std::filesystem::path tetgen_stem(const std::filesystem::path& path);
+/// Writes format_tetgen() to `stem.node` and `stem.ele`; `path` may name either file or
+/// the stem (tetgen_stem()). Errors name the file.
+Status write_tetgen(const std::filesystem::path& path, const TetMesh& mesh);
+
 /// Number of nodes of a Gmsh element type (1 for points, 4 for 4-node tets, 10 for
 /// type 11, ...), or 0 for unknown types and types of variable size (polygons).
 int gmsh_element_node_count(int type) noexcept;
