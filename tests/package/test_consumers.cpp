@@ -1,7 +1,10 @@
 // A simulator outside this project, built against `cmake --install build --prefix P`:
 // with find_package(tetcollide) (the CMake package, its version file) and with
 // pkg-config tetcollide-client, then run against the daemon installed in P, started
-// from its installed configuration on a private DDS domain.
+// from its installed configuration on a private DDS domain. And the same program built
+// against the build tree itself (-Dtetcollide_DIR=<build>: the exported build-tree
+// package), run against the build tree's daemon. Each run also reads a mesh file with
+// tc::client::read_mesh (tetcollide/mesh.hpp).
 #include <gtest/gtest.h>
 
 #include <csignal>
@@ -17,6 +20,22 @@ namespace {
 
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
+
+/// Runs the consumer `program` against a daemon on `domain`, with a mesh to read
+/// (data/meshes/box.msh, 3,276 tets), and checks that it loaded
+/// libtetcollide_client.so.0 from `libdir`.
+void run_consumer_with(const fs::path& program, std::uint32_t domain, const fs::path& libdir) {
+  const fs::path mesh = fs::path(program_from_env("TC_SOURCE_DIR")) / "data" / "meshes" / "box.msh";
+  const auto r = run_program({program.string(), std::to_string(domain), mesh.string()}, 60s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("consumer: " + mesh.string() + ": "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("consumer: frame 0, a: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("consumer: frame 0, b: "), std::string::npos) << r.out;
+  // It runs with the library of `libdir` (the installed one, or the build tree's).
+  const auto ldd = run_program({"/usr/bin/ldd", program.string()}, 30s);
+  EXPECT_NE(ldd.out.find((libdir / "libtetcollide_client.so.0").string()), std::string::npos)
+      << ldd.out;
+}
 
 class InstalledTree : public ::testing::Test {
  protected:
@@ -46,16 +65,7 @@ class InstalledTree : public ::testing::Test {
                      dir_, 20s))
         << file_text(dir_ / "daemon.log");
   }
-  void run_consumer(const fs::path& program) {
-    const auto r = run_program({program.string(), std::to_string(domain_)}, 60s);
-    EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
-    EXPECT_NE(r.out.find("consumer: frame 0, a: "), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("consumer: frame 0, b: "), std::string::npos) << r.out;
-    // It runs with the installed library, not the build tree's.
-    const auto ldd = run_program({"/usr/bin/ldd", program.string()}, 30s);
-    EXPECT_NE(ldd.out.find((libdir_ / "libtetcollide_client.so.0").string()), std::string::npos)
-        << ldd.out;
-  }
+  void run_consumer(const fs::path& program) { run_consumer_with(program, domain_, libdir_); }
 
   std::uint32_t domain_ = private_domain();
   fs::path dir_, prefix_, libdir_;
@@ -144,6 +154,57 @@ TEST_F(InstalledTree, ConsumerBuiltWith_pkgconfig) {
   start_installed_daemon();
   run_consumer(program);
   EXPECT_EQ(daemon_.stop(SIGTERM), 0);
+}
+
+// The build tree as a CMake package: `cmake -Dtetcollide_DIR=<build>` finds the exported
+// build-tree package (client/lib/CMakeLists.txt), whose tetcollide::client is this tree's
+// library with the source tree's include directory; no install.
+TEST(BuildTree, ConsumerBuiltWith_cmake) {
+  const fs::path build_tree = program_from_env("TC_BUILD_DIR");
+  const fs::path source = program_from_env("TC_SOURCE_DIR");
+  for (const char* f :
+       {"tetcollideConfig.cmake", "tetcollideConfigVersion.cmake", "tetcollideTargets.cmake"})
+    EXPECT_TRUE(fs::exists(build_tree / f)) << build_tree / f;
+  const fs::path dir = make_temp_dir("package-build-tree");
+  const std::string cmake = program_from_env("TC_CMAKE");
+  const fs::path build = dir / "consumer-build";
+  auto r = run_program(
+      {cmake, "-S", program_from_env("TC_CONSUMER_SOURCE"), "-B", build.string(), "-G", "Ninja",
+       "-DCMAKE_BUILD_TYPE=Release", "-Dtetcollide_DIR=" + build_tree.string()},
+      120s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  // A -D without a type stays UNINITIALIZED; the link line below shows the package found
+  // is the build tree's.
+  EXPECT_NE(file_text(build / "CMakeCache.txt")
+                .find("tetcollide_DIR:UNINITIALIZED=" + build_tree.string() + "\n"),
+            std::string::npos);
+  r = run_program({cmake, "--build", build.string(), "--verbose"}, 120s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("-std=gnu++20"), std::string::npos)
+      << "tetcollide::client did not bring C++20:\n"
+      << r.out;
+  EXPECT_NE(r.out.find("-isystem " + (source / "client" / "lib" / "include").string()),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find((build_tree / "lib" / "libtetcollide_client.so").string()),
+            std::string::npos)
+      << r.out;
+
+  // The build tree's daemon with the source tree's configuration, on a private domain.
+  const std::uint32_t domain = private_domain();
+  setenv("CYCLONEDDS_URI", ("file://" + (source / "config" / "cyclonedds.xml").string()).c_str(),
+         1);
+  ChildProcess daemon;
+  ASSERT_TRUE(start_daemon(
+      daemon,
+      {(build_tree / "bin" / "tetcollided").string(), "--config",
+       (source / "config" / "tetcollided.yaml").string(), "--domain", std::to_string(domain)},
+      dir, 20s))
+      << file_text(dir / "daemon.log");
+  run_consumer_with(build / "consumer", domain, build_tree / "lib");
+  EXPECT_EQ(daemon.stop(SIGTERM), 0);
+  if (HasFailure()) std::cerr << "---- daemon log ----\n" << file_text(dir / "daemon.log");
+  fs::remove_all(dir);
 }
 
 }  // namespace

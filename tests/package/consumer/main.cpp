@@ -1,10 +1,14 @@
-// A simulator outside this project: `consumer DOMAIN` registers two overlapping boxes
-// with the tetcollided service on DDS domain DOMAIN, publishes one frame of positions and
-// checks the answer: every object answered with status ok, contact forces on both, and
-// pushing them apart along x (a at x < b). Exit 0 when all holds, 1 otherwise. Built by
-// tests/package with find_package(tetcollide) and with pkg-config against installed
-// trees: it uses nothing but <tetcollide/client.hpp> and the standard library.
+// A simulator outside this project: `consumer DOMAIN [MESH]` registers two overlapping
+// boxes with the tetcollided service on DDS domain DOMAIN, publishes one frame of positions
+// and checks the answer: every object answered with status ok, contact forces on both, and
+// pushing them apart along x (a at x < b). With MESH, it first reads that file with
+// tc::client::read_mesh, prints its counts, and checks that a missing file throws a
+// MeshError naming it. Exit 0 when all holds, 1 otherwise. Built by tests/package with
+// find_package(tetcollide) and with pkg-config against installed trees and against the
+// build tree: it uses nothing but <tetcollide/client.hpp>, <tetcollide/mesh.hpp> and the
+// standard library.
 #include <tetcollide/client.hpp>
+#include <tetcollide/mesh.hpp>
 
 #include <array>
 #include <chrono>
@@ -65,12 +69,32 @@ int fail(const std::string& what) {
   return 1;
 }
 
+/// Reads `path` with the library's reader and prints its counts; checks the error of a
+/// file beside it that does not exist. 0 when both behave, else 1.
+int read_mesh_file(const std::string& path) {
+  const tcc::Mesh mesh = tcc::read_mesh(path);
+  std::printf("consumer: %s: %zu nodes, %zu tets\n", path.c_str(), mesh.rest_positions.size() / 3,
+              mesh.tets.size() / 4);
+  if (mesh.node_ids.size() * 3 != mesh.rest_positions.size() || mesh.tets.empty())
+    return fail(path + ": not a tet mesh");
+  const std::string missing = path + ".missing.msh";
+  try {
+    tcc::read_mesh(missing);
+  } catch (const tcc::MeshError& e) {
+    if (e.code() != tcc::StatusCode::kIo || std::string(e.what()) != missing + ": cannot open file")
+      return fail(std::string("unexpected error for a missing file: ") + e.what());
+    return 0;
+  }
+  return fail("no MeshError for " + missing);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace std::chrono_literals;
-  if (argc != 2) return fail("usage: consumer DOMAIN");
+  if (argc != 2 && argc != 3) return fail("usage: consumer DOMAIN [MESH]");
   try {
+    if (argc == 3 && read_mesh_file(argv[2]) != 0) return 1;
     auto client = tcc::Client::connect(static_cast<std::uint32_t>(std::atoi(argv[1])), "consumer");
     if (!client->wait_for_service(10s)) return fail("no tetcollided on this domain");
     const tcc::Mesh a = box(3, {0.0, 0.0, 0.0}, 1.0);
