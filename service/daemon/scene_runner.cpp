@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <exception>
 
 #include "samples.hpp"
@@ -12,6 +13,35 @@
 
 namespace tc::daemon {
 namespace {
+
+/// A number as the messages print it (%g).
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+/// Names with their stiffness, at most four then a count.
+std::string names_text(const std::vector<std::pair<std::string, double>>& names) {
+  std::string out;
+  for (std::size_t i = 0; i < names.size() && i < 4; ++i)
+    out += (i ? ", '" : "'") + names[i].first + "' (" + number_text(names[i].second) + ")";
+  if (names.size() > 4) out += " and " + std::to_string(names.size() - 4) + " more";
+  return out;
+}
+
+/// What the pair rule (the smaller stiffness) does to a newly registered object's pairs,
+/// said once with its registration (docs/INTEGRATORS.md); empty when nothing is capped.
+std::string caps_text(const Pipeline::StiffnessCaps& caps, double own) {
+  std::string out;
+  if (!caps.capped_by.empty())
+    out = "pairs with " + names_text(caps.capped_by) +
+          " use that smaller stiffness, below this object's " + number_text(own);
+  if (!caps.caps.empty())
+    out += (out.empty() ? "" : "; ") + std::string("this object's stiffness ") + number_text(own) +
+           " caps its pairs with " + names_text(caps.caps);
+  return out;
+}
 
 /// The 3x3 blocks as 9 row-major doubles each, into `rows` (reused).
 std::span<const double> row_major(const std::vector<Eigen::Matrix3d>& blocks,
@@ -117,6 +147,12 @@ void SceneRunner::run_topology(TopologyJob& job) {
                   std::to_string(build_ms) + " ms (" +
                   std::to_string(ms_between(job.received, Clock::now())) + " ms since received)";
     spdlog::info("{}/{}: {}", scene_, job.object, msg.message);
+    if (const std::string caps =
+            caps_text(pipeline_.stiffness_caps(job.object), job.params.stiffness);
+        !caps.empty()) {
+      msg.message += "; " + caps;
+      spdlog::warn("{}/{}: {}", scene_, job.object, caps);
+    }
   } else {
     msg.kind = StatusKind::kError;
     msg.code = status_code(st.error().code);

@@ -67,6 +67,38 @@ TEST_F(SceneRunnerTest, RegistrationIsReported) {
       << outbox_.status[0].message;
 }
 
+/// The pair rule (the smaller stiffness) is said once, with the registration of the later
+/// object of a pair whose stiffnesses differ, in its status message (and the log).
+TEST_F(SceneRunnerTest, AStiffnessThePairRuleCapsIsSaidWithTheRegistration) {
+  ObjectParams box;
+  box.is_static = true;  // the default 1e4
+  ObjectParams ball;
+  ball.stiffness = 1e7;
+  SceneJob job = TopologyJob{"box", 1, box_at(0.0), box, Clock::now()};
+  runner_.run(job);
+  job = TopologyJob{"ball", 1, box_at(3.0), ball, Clock::now()};
+  runner_.run(job);
+  ObjectParams other_static = box;
+  other_static.stiffness = 5e3;
+  job = TopologyJob{"wall", 1, box_at(6.0), other_static, Clock::now()};
+  runner_.run(job);
+  ASSERT_EQ(outbox_.status.size(), 3u);
+  EXPECT_EQ(outbox_.status[0].message.find("stiffness"), std::string::npos)
+      << outbox_.status[0].message;  // alone in the scene: nothing to say
+  const std::string& said = outbox_.status[1].message;
+  EXPECT_EQ(outbox_.status[1].kind, StatusKind::kRegistered);
+  EXPECT_NE(said.find("pairs with 'box' (10000) use that smaller stiffness, below this "
+                      "object's 1e+07"),
+            std::string::npos)
+      << said;
+  // A static wall never meets the static box: only its pair with the ball is named.
+  const std::string& wall = outbox_.status[2].message;
+  EXPECT_NE(wall.find("this object's stiffness 5000 caps its pairs with 'ball' (1e+07)"),
+            std::string::npos)
+      << wall;
+  EXPECT_EQ(wall.find("'box'"), std::string::npos) << wall;
+}
+
 TEST_F(SceneRunnerTest, InvertedTopologyIsRejectedAndReported) {
   TetMesh m = box_at(0.0);
   std::swap(m.tets[3][0], m.tets[3][1]);

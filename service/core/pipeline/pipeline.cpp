@@ -247,6 +247,25 @@ bool Pipeline::has_object(const std::string& object) const {
   return impl_->objects.count(object) > 0;
 }
 
+const ObjectParams* Pipeline::params(const std::string& object) const {
+  const auto it = impl_->objects.find(object);
+  return it == impl_->objects.end() ? nullptr : &it->second->params;
+}
+
+Pipeline::StiffnessCaps Pipeline::stiffness_caps(const std::string& object) const {
+  StiffnessCaps out;
+  const ObjectParams* own = params(object);
+  if (own == nullptr) return out;
+  for (const auto& [name, other] : impl_->objects) {
+    if (name == object || (own->is_static && other->params.is_static)) continue;
+    if (other->params.stiffness < own->stiffness)
+      out.capped_by.emplace_back(name, other->params.stiffness);
+    else if (other->params.stiffness > own->stiffness)
+      out.caps.emplace_back(name, other->params.stiffness);
+  }
+  return out;
+}
+
 FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectInput> states) {
   return run_frame(frame, states, {});
 }

@@ -163,6 +163,18 @@ class Pipeline {
   /// True when the object is registered (any version).
   [[nodiscard]] bool has_object(const std::string& object) const;
 
+  /// The parameters an object is registered with, or null for an unknown object.
+  [[nodiscard]] const ObjectParams* params(const std::string& object) const;
+
+  /// Where the pair rule (the smaller stiffness, pair_options) overrides what `object`
+  /// asked: the registered objects that can meet it (not both static) whose stiffness is
+  /// below its own ("capped by"), and those whose stiffness it caps, by name.
+  struct StiffnessCaps {
+    std::vector<std::pair<std::string, double>> capped_by;
+    std::vector<std::pair<std::string, double>> caps;
+  };
+  [[nodiscard]] StiffnessCaps stiffness_caps(const std::string& object) const;
+
   /// Runs one frame on the given states. Objects of the scene without a state this
   /// frame keep their last positions; a moving object that never got a valid state of
   /// its current topology version is left out (FrameOutput::left_out), a static one uses
