@@ -33,6 +33,7 @@
 #include "core/io/mesh_io.hpp"
 #include "core/io/surface_io.hpp"
 #include "tetcollide/client.hpp"
+#include "tetcollide/integration.hpp"
 
 namespace py = pybind11;
 using tc::client::Client;
@@ -578,6 +579,56 @@ py::tuple read_mesh(const py::object& path_obj) {
   return py::make_tuple(nodes, tets);
 }
 
+/// A client::Mesh from nodes (n, 3) and cells (m, 4) tets or (m, 3) triangles, for the
+/// integration helpers (ValueError on bad shapes or indices).
+tc::client::Mesh mesh_of(const py::object& nodes_obj, const py::object& cells_obj) {
+  tc::client::Mesh mesh;
+  const F64 nodes = positions_array(nodes_obj, "nodes", -1);
+  const py::ssize_t n = nodes.shape(0);
+  mesh.rest_positions.assign(nodes.data(), nodes.data() + 3 * n);
+  const py::array any =
+      numeric_array(cells_obj, "cells", "an integer array of shape (m, 4) or (m, 3)", true);
+  if (any.ndim() != 2 || (any.shape(1) != 4 && any.shape(1) != 3))
+    raise_value("cells: expected shape (m, 4) (tets) or (m, 3) (triangles), got " +
+                shape_text(any));
+  const I64 cells = I64::ensure(any);
+  if (!cells) raise_type("cells: values do not fit int64");
+  std::vector<std::int32_t>& out = any.shape(1) == 4 ? mesh.tets : mesh.triangles;
+  const py::ssize_t size = cells.size();
+  out.resize(static_cast<std::size_t>(size));
+  for (py::ssize_t i = 0; i < size; ++i) {
+    const std::int64_t v = cells.data()[i];
+    if (v < 0 || v >= n)
+      raise_value("cells[" + std::to_string(i / any.shape(1)) + ", " +
+                  std::to_string(i % any.shape(1)) + "] = " + std::to_string(v) +
+                  " is out of range: expected a node index in [0, " + std::to_string(n) + ")");
+    out[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(v);
+  }
+  return mesh;
+}
+
+py::array node_weights_py(const py::object& nodes, const py::object& cells) {
+  std::vector<double> w = tc::client::node_weights(mesh_of(nodes, cells));
+  const auto n = static_cast<py::ssize_t>(w.size());
+  return owning_array(std::move(w), {n});
+}
+
+double max_explicit_stiffness_py(const py::object& nodes, const py::object& cells,
+                                 const py::object& masses_obj, double dt, double damping) {
+  const tc::client::Mesh mesh = mesh_of(nodes, cells);
+  const py::array any = numeric_array(masses_obj, "masses", "a float64 array of shape (n,)", false);
+  const auto masses = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(any);
+  if (!masses || masses.ndim() != 1)
+    raise_value("masses: expected shape (n,), got " + shape_text(any));
+  try {
+    return tc::client::max_explicit_stiffness(
+        mesh, std::span<const double>(masses.data(), static_cast<std::size_t>(masses.size())), dt,
+        damping);
+  } catch (const std::invalid_argument& e) {
+    raise_value(e.what());
+  }
+}
+
 py::tuple read_surface(const py::object& path_obj) {
   const auto path = py::module_::import("os").attr("fspath")(path_obj).cast<std::string>();
   tc::Expected<tc::SurfaceMesh> mesh = [&] {
@@ -655,6 +706,18 @@ Returns (nodes, triangles): nodes float64 (n, 3) in metres (the file's numbers),
 int32 (k, 3) 0-based node indices, for Client.register_surface. Raises OSError when the
 file cannot be read and ValueError naming the file and line (or byte) when it is
 malformed.)");
+
+  m.def("node_weights", &node_weights_py, py::arg("nodes"), py::arg("cells"),
+        R"(The point response's weight of every node, metres (docs/INTEGRATORS.md): half the
+summed length of its edges. nodes (n, 3), cells (m, 4) tets or (m, 3) triangles; returns
+float64 (n,). A node d metres deep feels stiffness * weight * d newtons.)");
+  m.def("max_explicit_stiffness", &max_explicit_stiffness_py, py::arg("nodes"), py::arg("cells"),
+        py::arg("masses"), py::arg("dt"), py::arg("damping") = 0.0,
+        R"(The largest penalty stiffness (N/m^2) a symplectic Euler step of dt seconds stays
+stable with, for every node (masses (n,) kg) against a heavy or static object, with
+contact damping `damping` (N s/m^2): min over nodes of (4 m - 2 c w dt) / (w dt^2)
+(docs/INTEGRATORS.md). Choose a stiffness below it (half). 0 when the damping alone is
+unstable. ValueError on bad shapes, masses or dt.)");
 
   py::class_<tc::client::Registration>(
       m, "Registration", "The service's verdict on a topology (Client.wait_registered).")
@@ -875,7 +938,7 @@ objects). One thread per Client; every wait releases the GIL.)")
 
   nodes      (n, 3) float64 rest positions, metres
   tets       (m, 4) integer 0-based node indices, positively oriented
-  stiffness  penalty stiffness, N/m^2;  damping: N s/m per unit depth rate
+  stiffness  penalty stiffness, N/m^2;  damping: N s/m^2 (per metre of edge, as stiffness)
   max_force  cap on one node's force, N (0 = none);  static: never moves
   depth      'cpfm' | 'cffm' | 'exact';  response: 'point' | 'segment' | 'auto'
   node_ids   (n,) integer ids reported back only, or None

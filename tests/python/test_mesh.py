@@ -84,3 +84,23 @@ def test_read_surface_reads_the_probe_and_refuses_a_tet_mesh(tmp_path):
         tetcollide.read_surface(bad)
     with pytest.raises(OSError):
         tetcollide.read_surface(tmp_path / "missing.stl")
+
+
+def test_node_weights_and_the_explicit_bound_match_the_client_library():
+    """tetcollide.node_weights / max_explicit_stiffness (docs/INTEGRATORS.md) on the unit
+    tet: the hand-computed weights and the bound (4 m - 2 c w dt) / (w dt^2) of its node
+    with the smallest m / w; bad masses named."""
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
+    tets = np.array([[0, 1, 2, 3]])
+    w = tetcollide.node_weights(nodes, tets)
+    assert w.shape == (4,)
+    assert w[0] == 1.5 and abs(w[1] - 0.5 * (1 + 2 * np.sqrt(2))) < 1e-15
+    masses = np.array([0.02, 0.05, 0.05, 0.05])
+    k = tetcollide.max_explicit_stiffness(nodes, tets, masses, 1e-3, damping=1.0)
+    assert abs(k - (4 * 0.02 - 2 * 1.0 * 1.5 * 1e-3) / (1.5 * 1e-6)) < 1e-9 * k
+    tri = tetcollide.node_weights(nodes[:3], np.array([[0, 1, 2]]))
+    assert tri.shape == (3,) and tri[0] == 1.0
+    with pytest.raises(ValueError, match="node 2 has mass"):
+        tetcollide.max_explicit_stiffness(nodes, tets, np.array([1, 1, 0, 1.0]), 1e-3)
+    with pytest.raises(ValueError, match="cells"):
+        tetcollide.node_weights(nodes, np.array([[0, 1, 2, 9]]))

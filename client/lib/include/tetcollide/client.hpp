@@ -1,13 +1,26 @@
 // libtetcollide_client: the C++ API a simulator uses to talk to tetcollided over DDS.
 //
-//   auto client = tc::client::Client::connect(0, "surgery");   // domain, scene
-//   client->wait_for_service(std::chrono::seconds(5));
+//   using namespace std::chrono_literals;
+//   tc::client::Options options;
+//   options.domain = 0;
+//   options.scene = "surgery";
+//   options.resend_after = 20ms;  // re-publish a frame's states when its answer is late
+//   auto client = tc::client::Client::connect(options);
+//   if (!client->wait_for_service(5s)) ...;                   // a READY service
+//   const tc::client::Mesh mesh = tc::client::read_mesh("liver.msh");  // tetcollide/mesh.hpp
 //   client->register_object("liver", mesh, params);           // topology, version 1
-//   client->wait_registered("liver", std::chrono::seconds(5));
-//   for (frame = 0;; ++frame) {
-//     client->publish_states(frame, {{"liver", positions}});  // 3n doubles, metres
-//     auto forces = client->wait_forces(frame, std::chrono::milliseconds(100));
-//   }
+//   client->wait_registered("liver", 5s).ok;                  // the service built it
+//   client->wait_for_readers(1, 5s);                          // states now reach it
+//   for (frame = 0;; ++frame) {                               // at 1 kHz:
+//     client->publish_states(frame, {{"liver", positions, velocities}});  // 3n each
+//     auto forces = client->wait_forces(frame, 5ms);  // p50 about 0.5-1 ms for a small
+//   }                                                 // scene; nullopt: no answer in time
+//
+// Which parameters and answers an explicit, an implicit or a position-based integrator
+// uses, and the stable stiffness of an explicit step: docs/INTEGRATORS.md
+// (tetcollide/integration.hpp). A pair of objects uses the smaller stiffness and the
+// larger damping of the two (a static box at the default 1e4 caps a stiffer ball; the
+// service says so in the registration's status message).
 //
 // Depends on Cyclone DDS and the generated protocol types only. The protocol itself is
 // documented in docs/PROTOCOL.md; this library is one implementation of its client side.
@@ -76,7 +89,7 @@ TC_CLIENT_API std::optional<ResponseKind> parse_response_kind(std::string_view n
 /// Per-object contact parameters, sent with the topology.
 struct ObjectParams {
   double stiffness = 1e4;  ///< penalty stiffness, N/m^2
-  double damping = 0.0;    ///< N s/m per unit depth rate
+  double damping = 0.0;    ///< penalty damping c, N s/m^2 (per metre of edge, like stiffness)
   double max_force = 0.0;  ///< cap on one node's force, N; 0 = none
   bool is_static = false;  ///< never moves; the service does not wait for its states
   DepthMethod depth = DepthMethod::kCpfm;
