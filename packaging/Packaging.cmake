@@ -68,8 +68,9 @@ set(CPACK_COMPONENT_DEV_DEPENDS client)
 set(CPACK_DEBIAN_DEV_PACKAGE_SHLIBDEPS OFF)  # no ELF file, the .so link only
 set(CPACK_DEBIAN_DEV_DESCRIPTION
     "client library of the tetcollided collision service (development files)
-The header tetcollide/client.hpp, the CMake package (find_package(tetcollide) gives the
-target tetcollide::client) and the pkg-config file tetcollide-client.pc.")
+The headers tetcollide/client.hpp, mesh.hpp and integration.hpp, the CMake package
+(find_package(tetcollide) gives the target tetcollide::client) and the pkg-config file
+tetcollide-client.pc.")
 
 set(CPACK_DEBIAN_TOOLS_PACKAGE_NAME tetcollide-tools)
 set(CPACK_DEBIAN_TOOLS_PACKAGE_SECTION science)
