@@ -10,21 +10,13 @@
 
 #include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
+#include "core/io/text_write.hpp"
 
 namespace tc {
 namespace {
 
-void append_int(std::string& s, std::int64_t v) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
-  s.append(buf, r.ptr);
-}
-
-void append_double(std::string& s, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);  // shortest round-trip form
-  s.append(buf, r.ptr);
-}
+using io_detail::append_double;
+using io_detail::append_int;
 
 template <typename T>
 void append_binary(std::string& s, T v) {
@@ -35,13 +27,11 @@ void append_binary(std::string& s, T v) {
   s.append(bytes, sizeof(T));
 }
 
+/// The writers' common check, then what Gmsh needs of the ids: positive and distinct tags.
 Status check_writable(const TetMesh& mesh) {
-  const auto n = static_cast<std::size_t>(mesh.positions.cols());
-  if (mesh.node_ids.size() != n)
-    return Error{ErrorCode::kInvalidArgument, "mesh has " + std::to_string(mesh.node_ids.size()) +
-                                                  " node ids for " + std::to_string(n) + " nodes"};
+  if (Status st = io_detail::check_mesh_for_writing(mesh); !st) return st;
   io_detail::TagMap seen;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < mesh.node_ids.size(); ++i) {
     const std::int64_t id = mesh.node_ids[i];
     if (id <= 0)
       return Error{ErrorCode::kInvalidArgument,
@@ -49,16 +39,7 @@ Status check_writable(const TetMesh& mesh) {
                        ", not a valid Gmsh node tag (tags are positive)"};
     if (!seen.insert(id, static_cast<Index>(i)))
       return Error{ErrorCode::kInvalidArgument, "duplicate node id " + std::to_string(id)};
-    if (!mesh.positions.col(static_cast<Eigen::Index>(i)).allFinite())
-      return Error{ErrorCode::kInvalidArgument,
-                   "node " + std::to_string(i) + " has a non-finite coordinate"};
   }
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
-    for (const Index v : mesh.tets[t])
-      if (v < 0 || static_cast<std::size_t>(v) >= n)
-        return Error{ErrorCode::kInvalidArgument, "tet " + std::to_string(t) + " refers to node " +
-                                                      std::to_string(v) + ", outside [0, " +
-                                                      std::to_string(n) + ")"};
   return {};
 }
 

@@ -17,43 +17,12 @@
 
 #include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
+#include "core/io/text_write.hpp"
 
 namespace tc {
-namespace {
 
-void append_int(std::string& s, std::int64_t v) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
-  s.append(buf, r.ptr);
-}
-
-void append_double(std::string& s, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);  // shortest round-trip form
-  s.append(buf, r.ptr);
-}
-
-/// Checks what a TetGen file can hold and what the reader would refuse: one id per
-/// node, finite coordinates, tets referring to existing nodes.
-Status check_writable(const TetMesh& mesh) {
-  const auto n = static_cast<std::size_t>(mesh.positions.cols());
-  if (mesh.node_ids.size() != n)
-    return Error{ErrorCode::kInvalidArgument, "mesh has " + std::to_string(mesh.node_ids.size()) +
-                                                  " node ids for " + std::to_string(n) + " nodes"};
-  for (std::size_t i = 0; i < n; ++i)
-    if (!mesh.positions.col(static_cast<Eigen::Index>(i)).allFinite())
-      return Error{ErrorCode::kInvalidArgument,
-                   "node " + std::to_string(i) + " has a non-finite coordinate"};
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
-    for (const Index v : mesh.tets[t])
-      if (v < 0 || static_cast<std::size_t>(v) >= n)
-        return Error{ErrorCode::kInvalidArgument, "tet " + std::to_string(t) + " refers to node " +
-                                                      std::to_string(v) + ", outside [0, " +
-                                                      std::to_string(n) + ")"};
-  return {};
-}
-
-}  // namespace
+using io_detail::append_double;
+using io_detail::append_int;
 
 std::int64_t tetgen_base(const TetMesh& mesh) {
   for (std::size_t i = 0; i < mesh.node_ids.size(); ++i)
@@ -62,7 +31,7 @@ std::int64_t tetgen_base(const TetMesh& mesh) {
 }
 
 Expected<TetGenText> format_tetgen(const TetMesh& mesh) {
-  if (Status st = check_writable(mesh); !st) return st.error();
+  if (Status st = io_detail::check_mesh_for_writing(mesh); !st) return st.error();
   const auto n = static_cast<std::size_t>(mesh.positions.cols());
   const std::size_t m = mesh.tets.size();
   const std::int64_t base = tetgen_base(mesh);

@@ -13,6 +13,7 @@
 #include "core/common/xml.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/io/scan.hpp"
+#include "core/io/text_write.hpp"
 
 namespace tc {
 namespace {
@@ -105,25 +106,7 @@ Expected<std::string> format_vtu(const TetMesh& mesh,
   const auto n = static_cast<std::size_t>(mesh.positions.cols());
   const std::size_t tets = mesh.tets.size();
   const std::size_t m = tets + triangles.size();
-  if (mesh.node_ids.size() != n)
-    return Error{ErrorCode::kInvalidArgument, "mesh has " + std::to_string(mesh.node_ids.size()) +
-                                                  " node ids for " + std::to_string(n) + " nodes"};
-  for (std::size_t i = 0; i < n; ++i)
-    if (!mesh.positions.col(static_cast<Eigen::Index>(i)).allFinite())
-      return Error{ErrorCode::kInvalidArgument,
-                   "node " + std::to_string(i) + " has a non-finite coordinate"};
-  for (std::size_t t = 0; t < tets; ++t)
-    for (const Index v : mesh.tets[t])
-      if (v < 0 || static_cast<std::size_t>(v) >= n)
-        return Error{ErrorCode::kInvalidArgument, "tet " + std::to_string(t) + " refers to node " +
-                                                      std::to_string(v) + ", outside [0, " +
-                                                      std::to_string(n) + ")"};
-  for (std::size_t t = 0; t < triangles.size(); ++t)
-    for (const Index v : triangles[t])
-      if (v < 0 || static_cast<std::size_t>(v) >= n)
-        return Error{ErrorCode::kInvalidArgument, "triangle " + std::to_string(t) +
-                                                      " refers to node " + std::to_string(v) +
-                                                      ", outside [0, " + std::to_string(n) + ")"};
+  if (Status st = io_detail::check_mesh_for_writing(mesh, triangles); !st) return st.error();
   std::set<std::string> point_names = {"node_id"};
   if (Status st = check_fields(point_fields, n, "point", point_names); !st) return st.error();
   std::set<std::string> cell_names;
