@@ -121,6 +121,33 @@ struct Pipeline::Impl {
   PairResponse pair_response;
 
   static Status check_params(const std::string& object, const ObjectParams& params);
+
+  // The steps of one frame (run_frame), in the order they run.
+
+  /// 1. States: checked object by object; a bad one is rejected, the rest run.
+  /// Velocities hold for the frame they came with: an object without a state counts as
+  /// at rest. `take` non-empty: the states' matrices are swapped in, not copied.
+  void apply_states(std::int64_t frame, std::span<const FrameObjectInput> states,
+                    std::span<FrameObjectInput> take, FrameOutput& out);
+  /// 2. Broad phase over objects: the objects that take part (frame_objects, bodies told
+  /// their positions), their boxes, and the pairs that touch and are enabled (frame_pairs).
+  void object_pairs(FrameOutput& out);
+  /// The response settings of a pair: the two objects' and the service's.
+  [[nodiscard]] ResponseOptions response_options(const SceneObject& a, const SceneObject& b) const;
+  /// 3. Detection per pair (the detector's inner loops run on TBB): contacts[p], the
+  ///    marked tets of the involved objects, and the response kinds decided on the way.
+  void detect_pairs(FrameOutput& out);
+  /// 4. Lazy depth maps of the involved objects, in parallel across objects. Static
+  ///    objects compute their full map once and keep it.
+  void update_depth_maps(FrameOutput& out);
+  /// 5. Response per pair, summed per object in pair order (deterministic); the forces,
+  ///    contact rows and the per-object force cap.
+  void respond(FrameOutput& out);
+
+  // Per-frame scratch of the steps above.
+  std::vector<SceneObject*> frame_objects;
+  std::vector<std::pair<Index, Index>> frame_pairs;                 // into frame_objects
+  std::vector<std::optional<std::array<ResponseKind, 2>>> decided;  // per pair
 };
 
 Status Pipeline::Impl::check_params(const std::string& object, const ObjectParams& params) {
@@ -279,10 +306,17 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   const auto frame_start = Clock::now();
   FrameOutput out;
   out.frame = frame;
-  auto& objects = impl_->objects;
+  impl_->apply_states(frame, states, take, out);
+  impl_->object_pairs(out);
+  impl_->detect_pairs(out);
+  impl_->update_depth_maps(out);
+  impl_->respond(out);
+  out.stats.total_ms = ms_since(frame_start);
+  return out;
+}
 
-  // 1. States: checked object by object; a bad one is rejected, the rest run. Velocities
-  //    hold for the frame they came with: an object without a state counts as at rest.
+void Pipeline::Impl::apply_states(std::int64_t frame, std::span<const FrameObjectInput> states,
+                                  std::span<FrameObjectInput> take, FrameOutput& out) {
   for (auto& [name, obj] : objects) obj->velocities.resize(3, 0);
   for (std::size_t k = 0; k < states.size(); ++k) {
     const FrameObjectInput& state = states[k];
@@ -342,10 +376,12 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     if (!obj.surface && obj.shape_check->last().has_box)
       obj.state_box = Aabb{obj.shape_check->last().box_lo, obj.shape_check->last().box_hi};
   }
+}
 
-  // 2. Broad phase over objects: boxes, then the pairs that touch and are enabled.
-  auto t0 = Clock::now();
-  std::vector<SceneObject*> list;
+void Pipeline::Impl::object_pairs(FrameOutput& out) {
+  const auto t0 = Clock::now();
+  std::vector<SceneObject*>& list = frame_objects;
+  list.clear();
   list.reserve(objects.size());
   for (auto& [name, obj] : objects) {
     if (!obj->has_state && !obj->params.is_static) {
@@ -373,27 +409,27 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   for (const SceneObject* obj : list) boxes.push_back(obj->box());
   // Two static objects never meet; two surfaces are never tested (neither has a depth map
   // to push the other out of).
-  const auto pairs = touching_object_pairs(boxes, [&](Index i, Index j) {
+  frame_pairs = touching_object_pairs(boxes, [&](Index i, Index j) {
     return !(list[i]->params.is_static && list[j]->params.is_static) &&
            !(list[i]->surface && list[j]->surface);
   });
   out.stats.broad_ms += ms_since(t0);
+}
 
-  // The response settings of a pair: the two objects' and the service's.
-  const auto response_options = [&](const SceneObject& a, const SceneObject& b) {
-    ResponseOptions options = pair_options(a.params, b.params);
-    if (impl_->config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
-    if (impl_->config.density_threshold > 0.0)
-      options.auto_threshold = impl_->config.density_threshold;
-    options.record_contacts = impl_->config.record_contacts;
-    options.evaluation = impl_->config.evaluation;
-    return options;
-  };
+ResponseOptions Pipeline::Impl::response_options(const SceneObject& a, const SceneObject& b) const {
+  ResponseOptions options = pair_options(a.params, b.params);
+  if (config.compute_stiffness) options.stiffness_mode = StiffnessMode::kLumped;
+  if (config.density_threshold > 0.0) options.auto_threshold = config.density_threshold;
+  options.record_contacts = config.record_contacts;
+  options.evaluation = config.evaluation;
+  return options;
+}
 
-  // 3. Detection per pair (the detector's inner loops run on TBB).
-  auto& contacts = impl_->contacts;
+void Pipeline::Impl::detect_pairs(FrameOutput& out) {
+  const auto& list = frame_objects;
+  const auto& pairs = frame_pairs;
   if (contacts.size() < pairs.size()) contacts.resize(pairs.size());
-  std::vector<std::optional<std::array<ResponseKind, 2>>> decided(pairs.size());
+  decided.assign(pairs.size(), std::nullopt);
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     DetectStats ds;
     SceneObject& a = *list[pairs[p].first];
@@ -407,7 +443,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       SurfaceDetectStats ss;
       contacts[p] = to_pair_contacts(
           detect_surface_tets(s.positions, s.surface->mesh.triangles, s.surface->edges, t.positions,
-                              t.mesh.tets, impl_->detect_options, &ss),
+                              t.mesh.tets, detect_options, &ss),
           a.surface.has_value());
       ds.narrow_ms = ms_since(start);
       ds.candidates = ss.candidates;
@@ -421,7 +457,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       const ResponseObject ra = a.response_view();
       const ResponseObject rb = b.response_view();
       const ResponseOptions options = response_options(a, b);
-      impl_->detector.detect(
+      detector.detect(
           *a.body, *b.body, contacts[p], &ds, [&](const PairContacts& c) -> std::array<bool, 2> {
             const auto kinds = response_kinds(ra, c.marked_a, rb, c.marked_b, options);
             decided[p] = kinds;
@@ -437,10 +473,11 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     a.marked.insert(a.marked.end(), contacts[p].marked_a.begin(), contacts[p].marked_a.end());
     b.marked.insert(b.marked.end(), contacts[p].marked_b.begin(), contacts[p].marked_b.end());
   }
+}
 
-  // 4. Lazy depth maps of the involved objects, in parallel across objects. Static
-  //    objects compute their full map once and keep it.
-  t0 = Clock::now();
+void Pipeline::Impl::update_depth_maps(FrameOutput& out) {
+  const auto& list = frame_objects;
+  const auto t0 = Clock::now();
   std::vector<SceneObject*> involved;
   for (SceneObject* obj : list)
     if (obj->involved && !obj->surface) involved.push_back(obj);  // a surface has no map
@@ -473,9 +510,12 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
       out.errors.push_back({involved[i]->name, {ErrorCode::kInvalidArgument, depth_errors[i]}});
   }
   out.stats.depth_ms = ms_since(t0);
+}
 
-  // 5. Response per pair, summed per object in pair order (deterministic).
-  t0 = Clock::now();
+void Pipeline::Impl::respond(FrameOutput& out) {
+  const auto& list = frame_objects;
+  const auto& pairs = frame_pairs;
+  const auto t0 = Clock::now();
   std::map<std::string, ObjectForces> totals;
   std::map<std::string, ObjectContacts> contact_rows;  // objects that asked for them
   // The rows of a pair for object `self` (one of the pair), if it asked for them.
@@ -498,8 +538,8 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     const ResponseObject rb = b.response_view();
     ResponseOptions options = response_options(a, b);
     options.decided_kinds = decided[p];
-    PairResponse& response = impl_->pair_response;
-    const Status st = impl_->accumulator.compute(ra, rb, contacts[p], options, response);
+    PairResponse& response = pair_response;
+    const Status st = accumulator.compute(ra, rb, contacts[p], options, response);
     if (!st) {
       out.errors.push_back({a.name + "/" + b.name, st.error()});
       continue;
@@ -518,7 +558,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   for (auto& [name, rows] : contact_rows) out.contacts.push_back(std::move(rows));
   for (auto& [name, forces] : totals) {
     const ObjectParams& params = objects.at(name)->params;
-    if (!params.blocks && !impl_->config.compute_stiffness) {  // made for the other object
+    if (!params.blocks && !config.compute_stiffness) {  // made for the other object
       forces.stiffness.clear();
       forces.damping.clear();
     }
@@ -527,8 +567,6 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
     out.forces.push_back(std::move(forces));
   }
   out.stats.response_ms = ms_since(t0);
-  out.stats.total_ms = ms_since(frame_start);
-  return out;
 }
 
 Expected<std::vector<double>> Pipeline::exact_depths(
