@@ -2,6 +2,7 @@
 //  [--turn-b AX AY AZ DEG] [--spin-b DEG] [--move-b DX DY DZ] --response point|segment|auto
 //  [--depth cpfm|cffm|exact] [--evaluation nearest-face|interpolate] [--lazy local|whole]
 //  [--stiffness K] [--friction MU [--friction-velocity EPS]] [--velocity-b VX VY VZ]
+//  [--repeat R] [--jitter M]
 //  [--forces OUT.csv] [--contacts OUT.csv] [--exact-check] [--json]`:
 // one frame of the whole pipeline (detection, lazy depth map, penalty response) on two
 // meshes, B optionally turned about its box's centre (after --scale-b) and translated.
@@ -13,6 +14,8 @@
 // the exact distance of each node to the other object's boundary (docs/RESPONSE.md).
 // --velocity-b moves every node of B at that velocity (A at rest): the contact damping and,
 // with --friction, Coulomb friction read it; friction is in the totals and --forces.
+// --jitter M moves every node of both objects by a seeded random offset in [-M, M] per
+// axis in each frame (outside the frame's time), so that --repeat times deforming frames.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -44,6 +47,7 @@ struct RespondArgs {
   double friction_velocity = 0.0;
   std::vector<double> velocity_b;
   int repeat = 20;
+  double jitter = 0.0;
   std::string forces_csv;
   std::string contacts_csv;
   std::string evaluation = "nearest-face";
@@ -154,7 +158,7 @@ int run_respond(const RespondArgs& args) {
     // As in the daemon, the states are made for the frame and the pipeline takes their
     // matrices (run_frame_taking): refilled here, outside the frame's time.
     for (std::size_t i = 0; i < states.size(); ++i) {
-      states[i].positions = sent[i].positions;
+      jitter_positions(sent[i].positions, args.jitter, r, static_cast<int>(i), states[i].positions);
       states[i].velocities = sent[i].velocities;
     }
     if (args.spin_b != 0.0 && r > 0) {
@@ -309,6 +313,11 @@ void add_respond_command(CLI::App& app, Context& ctx) {
                   "Every node of b moves at VX VY VZ (m/s); a is at rest")
       ->expected(3)
       ->type_name("VX VY VZ");
+  cmd->add_option("--jitter", args->jitter,
+                  "Move every node of both objects by a seeded random offset in [-M, M] per "
+                  "axis each frame (metres): repeats time deforming frames; the last is reported")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("M");
   cmd->add_option("--repeat", args->repeat, "Frames to time (median reported)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--forces", args->forces_csv, "Write object,node_id,fx,fy,fz CSV");
