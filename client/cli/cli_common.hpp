@@ -61,6 +61,7 @@ void add_render_command(CLI::App& app, Context& ctx);
 #ifdef TC_WITH_SERVICE
 void add_record_command(CLI::App& app, Context& ctx);
 void add_replay_command(CLI::App& app, Context& ctx);
+void add_status_command(CLI::App& app, Context& ctx);
 void add_demo_command(CLI::App& app, Context& ctx);
 #endif
 

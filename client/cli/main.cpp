@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
 #ifdef TC_WITH_SERVICE
   tc::cli::add_record_command(app, ctx);
   tc::cli::add_replay_command(app, ctx);
+  tc::cli::add_status_command(app, ctx);
   tc::cli::add_demo_command(app, ctx);
 #endif
   try {

@@ -219,6 +219,8 @@ void DdsOutbox::publish_status(const StatusMessage& m) {
   copy_cut(s.message, m.message);
   s.protocol_version = tetcollide_PROTOCOL_VERSION;
   s.topology_timestamp = m.topology_timestamp;
+  s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  s.ownership_strength = ownership_strength_;
   if (const dds_return_t rc = dds_write(status_writer_, &s); rc < 0)
     write_failed("ServiceStatus", rc);
 }

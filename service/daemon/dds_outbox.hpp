@@ -6,6 +6,7 @@
 #include <dds/dds.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -59,6 +60,7 @@ class DdsOutbox final : public Outbox {
   [[nodiscard]] const AnswerWriters& answer_writers(std::string_view scene) const;
 
   std::int32_t ownership_strength_ = 0;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   std::vector<std::pair<std::string, std::int32_t>> shard_strengths_;
   dds_duration_t answer_lease_ = 0;
   std::map<std::int32_t, AnswerWriters> answer_writers_;  // by strength; made in create()

@@ -2,8 +2,10 @@
 // signals. Each test runs its own daemon on a private domain.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <nlohmann/json.hpp>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <csignal>
 #include <fstream>
@@ -560,6 +562,57 @@ TEST_F(ServiceTest, ContactsForTheObjectsThatAskForThem) {
   }
   EXPECT_GT(intruding, 0u);
   EXPECT_LT(intruding, fb->contacts.size());
+}
+
+/// `tetcollide status --json` while a simulator streams frames: the service (ready,
+/// protocol 3, its uptime), the scene with its two objects, its frame rate and compute
+/// times, and the error of a state it rejected.
+TEST_F(ServiceTest, StatusShowsTheServiceAndItsScenes) {
+  auto c = connect("watched");
+  TwoBoxes s;
+  c->register_object("a", s.a, {});
+  c->register_object("b", s.b, {});
+  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
+  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  std::atomic<bool> done{false};
+  std::thread simulator([&] {
+    for (std::int64_t f = 0; !done.load() && f < 20000; ++f) {
+      const auto pa = s.pos_a(f);
+      const auto pb = s.pos_b(f);
+      const std::vector<double> bad(6, 0.0);  // frame 5: a state of the wrong length
+      c->publish_states(f, {{"a", f == 5 ? std::span<const double>(bad) : pa}, {"b", pb}});
+      c->wait_forces(f, 2s);
+      std::this_thread::sleep_for(2ms);
+    }
+  });
+  const auto r = run_program({program_from_env("TC_CLI"), "status", "--domain",
+                              std::to_string(domain_), "--duration", "1.5", "--json"},
+                             30s);
+  done.store(true);
+  simulator.join();
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["services"].size(), 1u) << j.dump(2);
+  const auto& service = j["services"][0];
+  EXPECT_EQ(service["state"], "ready");
+  EXPECT_EQ(service["protocol_version"].get<int>(), 3);
+  EXPECT_GT(service["uptime_s"].get<double>(), 0.0);
+  const nlohmann::json* scene = nullptr;
+  for (const auto& sc : j["scenes"])
+    if (sc["scene"] == "watched") scene = &sc;
+  ASSERT_NE(scene, nullptr) << j.dump(2);
+  EXPECT_EQ((*scene)["objects"].get<int>(), 2);
+  EXPECT_GT((*scene)["frames_per_s"].get<double>(), 10.0) << scene->dump();
+  EXPECT_GT((*scene)["compute_ms_p50"].get<double>(), 0.0);
+  EXPECT_GE((*scene)["compute_ms_p99"].get<double>(), (*scene)["compute_ms_p50"].get<double>());
+  for (const char* key : {"contacts", "rejected", "dropped_frames", "errors"})
+    EXPECT_TRUE(scene->contains(key)) << key;
+  // No service on another domain: exit 1, said.
+  const auto none = run_program({program_from_env("TC_CLI"), "status", "--domain",
+                                 std::to_string((domain_ + 1) % 233), "--duration", "0.5"},
+                                30s);
+  EXPECT_EQ(none.exit_code, 1) << none.out << none.err;
+  EXPECT_NE(none.err.find("no tetcollided heard"), std::string::npos) << none.err;
 }
 
 TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
