@@ -682,10 +682,11 @@ TEST(GmshWriter, RejectsWhatGmshCannotHold) {
 void expect_identical_mesh(const TetMesh& a, const TetMesh& b) {
   EXPECT_EQ(a.node_ids, b.node_ids);
   ASSERT_EQ(a.positions.cols(), b.positions.cols());
-  if (a.positions.size() > 0)  // memcmp must not be given the null data of an empty matrix
+  if (a.positions.size() > 0) {  // memcmp must not be given the null data of an empty matrix
     EXPECT_EQ(std::memcmp(a.positions.data(), b.positions.data(),
                           sizeof(double) * static_cast<std::size_t>(a.positions.size())),
               0);
+  }
   EXPECT_EQ(a.tets, b.tets);
 }
 
