@@ -723,7 +723,19 @@ TEST_F(LoadSplitTest, EverySceneHasOneOwnerWhileHostsAreKilledAndRestartedInTurn
     worst_gap_ms = std::max(worst_gap_ms, gap_ms);
     // The primary's answers written before the kill may still arrive after the checks began.
     if (!owners.empty() && owners.front() == primary) owners.erase(owners.begin());
-    EXPECT_EQ(owners, (std::vector<std::string>{standby, primary})) << scene;
+    if (test::kSanitized) {
+      // Under a sanitizer the 4 daemons share 2 cores at a fraction of their speed, and a
+      // starved primary's 1 s lease can lapse: ownership then passes to the standby and
+      // back more than once (seen once in a CI run: standby, primary, standby, primary).
+      // Still: only the scene's two hosts answer it, the standby first, the primary last.
+      ASSERT_FALSE(owners.empty()) << scene;
+      for (const std::string& owner : owners)
+        EXPECT_TRUE(owner == standby || owner == primary) << scene << ": answered by " << owner;
+      EXPECT_EQ(owners.front(), standby) << scene;
+      EXPECT_EQ(owners.back(), primary) << scene;
+    } else {
+      EXPECT_EQ(owners, (std::vector<std::string>{standby, primary})) << scene;
+    }
     // The 1 s lease, then the next frame and its computation: 0.5 s of slack in Release,
     // 4x that under a sanitizer (then 8 daemons on 2 cores under ASan: 1,662 ms seen once).
     EXPECT_LT(gap_ms, 1000.0 + 500.0 * test::kTimeSlack)
