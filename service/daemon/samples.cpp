@@ -193,10 +193,6 @@ Status validate_topology(const TopologyView& t, const Limits& limits) {
   if (!std::isfinite(p.friction_velocity) || p.friction_velocity < 0.0)
     return fail(ErrorCode::kInvalidArgument, t.scene, t.object,
                 "params.friction_velocity must be finite and >= 0");
-  if (p.self_contact)
-    return fail(ErrorCode::kUnsupported, t.scene, t.object,
-                "params.self_contact: this service does not compute self-contact yet "
-                "(docs/PROTOCOL.md)");
   return {};
 }
 
@@ -277,6 +273,7 @@ ObjectParams to_params(const WireParams& p) {
   out.friction_velocity = p.friction_velocity;
   out.blocks = p.blocks;
   out.contacts = p.contacts;
+  out.self_contact = p.self_contact;
   switch (p.depth) {
     case tetcollide_DEPTH_CFFM:
       out.depth = DepthMethod::kCffm;

@@ -88,16 +88,18 @@ TEST(Samples, ParamsConvert) {
   EXPECT_EQ(to_params(w).response, ResponseKind::kPoint);
   // Protocol 3's parameters; a version-2 sample has them at 0 / false.
   EXPECT_EQ(p.friction, 0.0);
-  EXPECT_FALSE(p.blocks || p.contacts);
+  EXPECT_FALSE(p.blocks || p.contacts || p.self_contact);
   w.friction = 0.4;
   w.friction_velocity = 2e-3;
   w.blocks = true;
   w.contacts = true;
+  w.self_contact = true;
   const ObjectParams q = to_params(w);
   EXPECT_EQ(q.friction, 0.4);
   EXPECT_EQ(q.friction_velocity, 2e-3);
   EXPECT_TRUE(q.blocks);
   EXPECT_TRUE(q.contacts);
+  EXPECT_TRUE(q.self_contact);
 }
 
 struct TopologyCase {
@@ -173,10 +175,7 @@ INSTANTIATE_TEST_SUITE_P(
                      ErrorCode::kInvalidArgument, "params.friction must be"},
         TopologyCase{"friction_velocity_inf",
                      [](TopologyData& d, Limits&) { d.params.friction_velocity = kInf; },
-                     ErrorCode::kInvalidArgument, "params.friction_velocity"},
-        TopologyCase{"self_contact_reserved",
-                     [](TopologyData& d, Limits&) { d.params.self_contact = true; },
-                     ErrorCode::kUnsupported, "params.self_contact"}),
+                     ErrorCode::kInvalidArgument, "params.friction_velocity"}),
     [](const ::testing::TestParamInfo<TopologyCase>& p) { return std::string(p.param.name); });
 
 TEST(Samples, GoodSurfaceConverts) {

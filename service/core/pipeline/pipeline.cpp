@@ -15,6 +15,7 @@
 #include "core/depth/boundary_bvh.hpp"
 #include "core/depth/depth_solver.hpp"
 #include "core/detect/detect.hpp"
+#include "core/detect/self_detect.hpp"
 #include "core/detect/surface_detect.hpp"
 #include "core/mesh/shape_check.hpp"
 #include "core/mesh/topology.hpp"
@@ -63,6 +64,16 @@ struct SceneObject {
   Positions velocities;  ///< current frame's velocities, or empty (at rest)
   std::unique_ptr<CollisionBody> body;
   std::unique_ptr<DepthSolver> depth;
+  /// Self-contact (ObjectParams::self_contact, tet objects): its detector, what the
+  /// response leaves out of a node's face search, and this frame's contacts.
+  struct Self {
+    std::unique_ptr<SelfCollider> collider;
+    std::vector<Index> node_component;
+    SelfContactView view;
+    SelfContacts contacts;
+    bool stale = true;  ///< positions changed since `contacts` were found
+  };
+  std::optional<Self> self;
   bool static_depth_ready = false;  ///< static objects: full map computed once
   /// A state of this version was applied: until then a moving object's positions are its
   /// rest positions, which are not a state, and it takes no part in contact.
@@ -107,6 +118,7 @@ ResponseObject SceneObject::response_view() const {
     o.tets = mesh.tets;
     o.depth = depth->depth();
     o.anchor = depth->anchor();
+    if (self) o.self = &self->view;
   }
   return o;
 }
@@ -137,6 +149,9 @@ struct Pipeline::Impl {
   /// 3. Detection per pair (the detector's inner loops run on TBB): contacts[p], the
   ///    marked tets of the involved objects, and the response kinds decided on the way.
   void detect_pairs(FrameOutput& out);
+  /// 3b. Self-contact of the objects that ask for it (their contacts stay while they do
+  ///     not move).
+  void detect_self(FrameOutput& out);
   /// 4. Lazy depth maps of the involved objects, in parallel across objects. Static
   ///    objects compute their full map once and keep it.
   void update_depth_maps(FrameOutput& out);
@@ -237,6 +252,13 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
       });
   slot->shape_check = std::make_unique<ShapeCheck>(slot->check_order, slot->topology.node_tets,
                                                    slot->mesh.num_nodes(), kFrameValidation);
+  if (params.self_contact) {
+    auto& self = slot->self.emplace();
+    self.collider = std::make_unique<SelfCollider>(std::span<const Tet>(slot->mesh.tets),
+                                                   slot->topology, slot->mesh.positions);
+    self.node_component = node_components(slot->topology);
+    self.view.node_component = self.node_component;
+  }
   impl_->objects[object] = std::move(slot);
   return {};
 }
@@ -248,6 +270,11 @@ Status Pipeline::set_surface(const std::string& object, std::uint32_t version, S
   if (mesh.triangles.empty())
     return Error{ErrorCode::kInvalidMesh, "object '" + object + "': no triangles"};
   if (Status st = Impl::check_params(object, params); !st) return st;
+  if (params.self_contact)
+    return Error{ErrorCode::kUnsupported,
+                 "object '" + object +
+                     "': params.self_contact: a surface object has no depth map, so nothing "
+                     "can be pushed out of it (self-contact is for tet objects)"};
   auto slot = std::make_unique<SceneObject>();
   slot->name = object;
   slot->version = version;
@@ -309,6 +336,7 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   impl_->apply_states(frame, states, take, out);
   impl_->object_pairs(out);
   impl_->detect_pairs(out);
+  impl_->detect_self(out);
   impl_->update_depth_maps(out);
   impl_->respond(out);
   out.stats.total_ms = ms_since(frame_start);
@@ -371,6 +399,7 @@ void Pipeline::Impl::apply_states(std::int64_t frame, std::span<const FrameObjec
     }
     obj.has_state = true;
     obj.moved = true;
+    if (obj.self) obj.self->stale = true;
     obj.state_box.reset();
     obj.state_checked = !obj.surface;
     if (!obj.surface && obj.shape_check->last().has_box)
@@ -475,6 +504,28 @@ void Pipeline::Impl::detect_pairs(FrameOutput& out) {
   }
 }
 
+void Pipeline::Impl::detect_self(FrameOutput& out) {
+  for (SceneObject* obj : frame_objects) {
+    if (!obj->self) continue;
+    SceneObject::Self& self = *obj->self;
+    if (self.stale) {
+      SelfDetectStats st;
+      self.collider->detect(obj->positions, detect_options.relative_tolerance, self.contacts, &st);
+      self.stale = false;
+      out.stats.broad_ms += st.surface_ms;
+      out.stats.narrow_ms += st.tets_ms;
+      out.stats.candidate_pairs += st.candidates;
+      out.stats.overlapping_pairs += st.overlapping;
+    } else {
+      for (const SelfContactPart& part : self.contacts.parts)
+        out.stats.overlapping_pairs += part.contacts.overlapping.size();
+    }
+    if (self.contacts.empty()) continue;
+    obj->involved = true;
+    obj->marked.insert(obj->marked.end(), self.contacts.marked.begin(), self.contacts.marked.end());
+  }
+}
+
 void Pipeline::Impl::update_depth_maps(FrameOutput& out) {
   const auto& list = frame_objects;
   const auto t0 = Clock::now();
@@ -530,19 +581,19 @@ void Pipeline::Impl::respond(FrameOutput& out) {
     for (const ContactRow& row : rows)
       oc.rows.push_back({index, row.intruder_is_a == self_is_a, row});
   };
-  for (std::size_t p = 0; p < pairs.size(); ++p) {
-    if (contacts[p].empty()) continue;
-    SceneObject& a = *list[pairs[p].first];
-    SceneObject& b = *list[pairs[p].second];
+  // One pair's response (a self-contact part: a and b the same object), summed in.
+  const auto answer = [&](const SceneObject& a, const SceneObject& b,
+                          const PairContacts& pair_contacts,
+                          const std::optional<std::array<ResponseKind, 2>>& kinds) {
     const ResponseObject ra = a.response_view();
     const ResponseObject rb = b.response_view();
     ResponseOptions options = response_options(a, b);
-    options.decided_kinds = decided[p];
+    options.decided_kinds = kinds;
     PairResponse& response = pair_response;
-    const Status st = accumulator.compute(ra, rb, contacts[p], options, response);
+    const Status st = accumulator.compute(ra, rb, pair_contacts, options, response);
     if (!st) {
-      out.errors.push_back({a.name + "/" + b.name, st.error()});
-      continue;
+      out.errors.push_back({&a == &b ? a.name : a.name + "/" + b.name, st.error()});
+      return;
     }
     out.stats.contacts += response.stats.point_contacts + response.stats.segment_contacts;
     out.stats.symmetric_pairs += response.stats.symmetric_pairs;
@@ -552,8 +603,24 @@ void Pipeline::Impl::respond(FrameOutput& out) {
                                     c.intruder_is_a ? b.name : a.name, c.node, c.depth, c.normal});
     if (!response.a.nodes.empty()) add_object_forces(totals[a.name], response.a);
     if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
+    if (&a == &b) {  // the object is both sides: each row once, as its own intrusion
+      if (!a.params.contacts || response.contacts.empty()) return;
+      std::vector<ContactRow> rows = response.contacts;
+      for (ContactRow& row : rows) row.intruder_is_a = true;
+      add_rows(a, a, true, rows);
+      return;
+    }
     add_rows(a, b, true, response.contacts);
     add_rows(b, a, false, response.contacts);
+  };
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    if (contacts[p].empty()) continue;
+    answer(*list[pairs[p].first], *list[pairs[p].second], contacts[p], decided[p]);
+  }
+  for (const SceneObject* obj : list) {
+    if (!obj->self) continue;
+    for (const SelfContactPart& part : obj->self->contacts.parts)
+      answer(*obj, *obj, part.contacts, std::nullopt);
   }
   for (auto& [name, rows] : contact_rows) out.contacts.push_back(std::move(rows));
   for (auto& [name, forces] : totals) {

@@ -32,6 +32,9 @@ struct ObjectParams {
   /// Return the contacts behind this object's forces (FrameOutput::contacts): for
   /// position-based and constraint solvers that build their own constraints.
   bool contacts = false;
+  /// Contact of the object with itself (docs/DETECTION.md, "Self-contact"): a fold, or
+  /// the fragments of a cut object. Tet objects only; off, a frame costs what it did.
+  bool self_contact = false;
 };
 
 }  // namespace tc

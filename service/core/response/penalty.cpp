@@ -119,6 +119,47 @@ struct FaceHit {
   Vec3 normal = Vec3::Zero();  ///< the face's outward unit normal (set by face_direction)
 };
 
+/// The neighbourhood of a self-contact's intruding node(s) that its face search leaves
+/// out (SelfContactView); empty for a contact between two objects.
+struct Exclusion {
+  const ResponseObject* y = nullptr;  ///< null: nothing is left out
+  Index component = -1;               ///< the intruding nodes' component
+  std::vector<Index> near;            ///< nodes within `rings` edges of them, sorted
+
+  /// For a contact of `intruder`'s nodes a and b (b = -1 for a point) in `target`: a
+  /// self-contact (both sides one object with a SelfContactView) leaves their
+  /// neighbourhood out.
+  static Exclusion of(const ResponseObject& intruder, const ResponseObject& target, Index a,
+                      Index b) {
+    Exclusion e;
+    if (target.self == nullptr || intruder.positions != target.positions) return e;
+    e.y = &target;
+    e.component = target.self->node_component[static_cast<std::size_t>(a)];
+    const Csr& adjacency = target.topology->node_adjacency;
+    e.near.push_back(a);
+    if (b >= 0) e.near.push_back(b);
+    std::size_t begin = 0;
+    for (int ring = 0; ring < target.self->rings; ++ring) {
+      const std::size_t end = e.near.size();
+      for (std::size_t i = begin; i < end; ++i)
+        for (const Index w : adjacency.row(e.near[i])) e.near.push_back(w);
+      begin = end;
+    }
+    std::sort(e.near.begin(), e.near.end());
+    e.near.erase(std::unique(e.near.begin(), e.near.end()), e.near.end());
+    return e;
+  }
+
+  [[nodiscard]] bool excludes(Index f) const {
+    if (y == nullptr) return false;
+    const auto& tri = y->topology->boundary_faces[static_cast<std::size_t>(f)];
+    if (y->self->node_component[static_cast<std::size_t>(tri[0])] != component) return false;
+    for (const Index w : tri)
+      if (std::binary_search(near.begin(), near.end(), w)) return true;
+    return false;
+  }
+};
+
 /// Outward unit normal of boundary face f of Y (the owning tet's orientation decides the
 /// side); false when the face has no area.
 bool boundary_face_normal(const ResponseObject& y, Index f, Vec3& normal) {
@@ -142,7 +183,8 @@ bool boundary_face_normal(const ResponseObject& y, Index f, Vec3& normal) {
 /// within `tie` (metres) of each other are ties, which go to the lower face index, so
 /// neither the order of the search nor rounding (a scale, an offset) decides between
 /// faces that are equally near.
-FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, double tie) {
+FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, double tie,
+                     const Exclusion& exclusion) {
   FaceHit best;
   if (y.topology == nullptr) return best;
   const Topology& topo = *y.topology;
@@ -158,6 +200,7 @@ FaceHit nearest_face(const ResponseObject& y, const Tet& tet, const Vec3& x, dou
     seen[count++] = v;
     bool improved = false;
     for (const Index f : topo.node_boundary_faces.row(v)) {
+      if (exclusion.excludes(f)) continue;
       const auto& tri = topo.boundary_faces[static_cast<std::size_t>(f)];
       const auto cp =
           closest_point_triangle(x, Vec3(y.positions->col(tri[0])), Vec3(y.positions->col(tri[1])),
@@ -243,12 +286,13 @@ bool gradient_direction(const TetData& td, const ResponseOptions& o, Direction& 
 /// separating pass of a symmetric overlap (ResponseOptions::along_pair_direction) the
 /// pair direction replaces the result, the depth being found as usual.
 Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                             const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
+                             const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit,
+                             const Exclusion& exclusion) {
   Direction dir;
   const Tet& tet = y.tets[static_cast<std::size_t>(t)];
   const auto by_face = [&] {
     const double size = longest_edge(td);
-    hit = nearest_face(y, tet, x, 1e-9 * size);
+    hit = nearest_face(y, tet, x, 1e-9 * size, exclusion);
     if (!face_direction(y, hit, x, size, dir.n)) return false;
     dir.from_face = true;
     return true;
@@ -278,8 +322,9 @@ Direction direction_by_depth(const ResponseObject& y, Index t, const TetData& td
 }
 
 Direction direction_at(const ResponseObject& y, Index t, const TetData& td, const Vec3& x,
-                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit) {
-  Direction dir = direction_by_depth(y, t, td, x, o, pair_direction, hit);
+                       const ResponseOptions& o, const Vec3& pair_direction, FaceHit& hit,
+                       const Exclusion& exclusion) {
+  Direction dir = direction_by_depth(y, t, td, x, o, pair_direction, hit, exclusion);
   if (o.along_pair_direction && pair_direction.allFinite() && pair_direction.squaredNorm() > 0.5) {
     dir.n = pair_direction.normalized();
     dir.gradient.setZero();
@@ -329,6 +374,15 @@ int clip_face(const Vec4& raw, const std::array<Vec3, 4>& grads, const Vec3& ab,
 
 }  // namespace
 
+std::vector<Index> node_components(const Topology& topology) {
+  std::vector<Index> component(static_cast<std::size_t>(topology.num_nodes), -1);
+  for (Index v = 0; v < topology.num_nodes && v < topology.node_tets.rows(); ++v)
+    if (!topology.node_tets.row(v).empty())
+      component[static_cast<std::size_t>(v)] =
+          topology.tet_component[static_cast<std::size_t>(topology.node_tets.row(v)[0])];
+  return component;
+}
+
 double node_length_weight(const ResponseObject& object, Index node) {
   const Vec3 p = object.positions->col(node);
   double sum = 0.0;
@@ -353,7 +407,8 @@ ContactResult point_contact(const ResponseObject& intruder, const ResponseObject
   }
   r.inverted = td.frame.volume6 < 0.0;
   FaceHit hit;
-  const Direction dir = direction_at(target, c.tet, td, p, options, pair_direction, hit);
+  const Direction dir = direction_at(target, c.tet, td, p, options, pair_direction, hit,
+                                     Exclusion::of(intruder, target, c.node, -1));
   r.fallback = dir.fallback;
   r.normal = dir.n;
   // The interpolation's own fallback keeps its depth where that is larger (a flat tet
@@ -468,7 +523,8 @@ ContactResult segment_contact(const ResponseObject& intruder, const ResponseObje
   // the force jump; docs/RESPONSE.md).
   const Vec3 mid = 0.5 * (x1 + x2);
   FaceHit hit;
-  Direction dir = direction_at(target, c.tet, td, mid, options, pair_direction, hit);
+  Direction dir = direction_at(target, c.tet, td, mid, options, pair_direction, hit,
+                               Exclusion::of(intruder, target, edge[0], edge[1]));
   double d1 = b1.dot(td.d), d2 = b2.dot(td.d);
   if (dir.from_face) {
     const Vec3 normal = hit.normal;  // set with the direction: the face has an area

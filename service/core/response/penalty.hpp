@@ -12,6 +12,7 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "core/detect/contacts.hpp"
 #include "core/mesh/surface_mesh.hpp"
@@ -124,6 +125,21 @@ struct ResponseOptions {
   std::size_t parallel_threshold = 64;
 };
 
+/// What the response reads of an object to answer its self-contact (docs/RESPONSE.md,
+/// "Self-contact"): a node pushed out of a tet of its own object is pushed through the
+/// nearest boundary face of the penetrated part that is not of the node's own
+/// neighbourhood. A face of another component is never of it; a face of the node's own
+/// component is when one of its corners lies within `rings` mesh edges of the node (of
+/// either end of an intruding edge).
+struct SelfContactView {
+  std::span<const Index> node_component;  ///< n: component of each node (-1: no tet)
+  int rings = 2;
+};
+
+/// The face-connected component of each node's first tet (-1 for a node of no tet): the
+/// SelfContactView's node_component, built once per topology.
+std::vector<Index> node_components(const Topology& topology);
+
 /// Read-only view of one object in a pair. Every pointer must outlive the call.
 struct ResponseObject {
   const Positions* positions = nullptr;   ///< 3 x n node positions, metres
@@ -142,6 +158,9 @@ struct ResponseObject {
   /// depth map, so it only intrudes: its vertices and edges are pushed out of the tet
   /// object, nothing of the tet object is pushed out of it.
   std::span<const Triangle> triangles;
+  /// Self-contact (a pair whose two sides are this same object): the neighbourhood the
+  /// nearest-face search leaves out. Null: every face is a candidate.
+  const SelfContactView* self = nullptr;
 
   [[nodiscard]] bool is_surface() const { return tets.empty() && !triangles.empty(); }
 };
