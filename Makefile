@@ -16,6 +16,8 @@ DEB_PACKAGES += libsystemd-dev dpkg-dev file binutils
 DEB_PACKAGES += iproute2
 # The Python module (client/python, docs/PYTHON.md), its tests and examples/python
 DEB_PACKAGES += pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
+# The peers of bench_peers and peers_exact_test (FCL 0.7, CGAL 5.5; both optional at build time)
+DEB_PACKAGES += libfcl-dev libcgal-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
