@@ -18,6 +18,10 @@ DEB_PACKAGES += iproute2
 DEB_PACKAGES += pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 # The peers of bench_peers and peers_exact_test (FCL 0.7, CGAL 5.5; both optional at build time)
 DEB_PACKAGES += libfcl-dev libcgal-dev
+# The daemon's Prometheus endpoint, metrics.listen (docs/DEPLOYMENT.md "Metrics"): a
+# required build dependency (its run-time libraries are in the tetcollided package's
+# Depends through dpkg-shlibdeps)
+DEB_PACKAGES += prometheus-cpp-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \

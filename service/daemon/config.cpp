@@ -1,5 +1,6 @@
 #include "config.hpp"
 
+#include <arpa/inet.h>
 #include <fnmatch.h>
 #include <yaml-cpp/yaml.h>
 
@@ -254,7 +255,15 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
              {"frames", frames},
              {"pipeline", pipeline},
              {"limits", limits},
-             {"log", log}});
+             {"log", log},
+             {"metrics", [&](const YAML::Node& n, const std::string& k) {
+                p.section(n, k, {{"listen", [&](const YAML::Node& v, const std::string& kk) {
+                                    c.metrics_listen = p.text(v, kk);
+                                    if (c.metrics_listen.empty()) return;
+                                    if (auto a = parse_listen_address(c.metrics_listen); !a)
+                                      p.fail(ErrorCode::kInvalidArgument, v, a.error().message);
+                                  }}});
+              }}});
 }
 
 }  // namespace
@@ -299,7 +308,48 @@ Status check_config(const DaemonConfig& c) {
     return Error{ErrorCode::kInvalidArgument, "limits.max_nodes is out of range"};
   if (c.limits.max_tets < 1 || c.limits.max_tets > tetcollide_MAX_TETS)
     return Error{ErrorCode::kInvalidArgument, "limits.max_tets is out of range"};
+  if (!c.metrics_listen.empty())
+    if (auto a = parse_listen_address(c.metrics_listen); !a) return a.error();
   return {};
+}
+
+Expected<ListenAddress> parse_listen_address(std::string_view text) {
+  const auto bad = [&](const std::string& why) {
+    return Error{ErrorCode::kInvalidArgument,
+                 "metrics.listen: '" + std::string(text) + "' " + why +
+                     " (HOST:PORT with a numeric IPv4 address, a bracketed IPv6 address or "
+                     "localhost, e.g. 127.0.0.1:9464; empty = no metrics)"};
+  };
+  const auto colon = text.rfind(':');
+  if (colon == std::string_view::npos || colon == 0) return bad("is not HOST:PORT");
+  const std::string host(text.substr(0, colon));
+  const std::string port_text(text.substr(colon + 1));
+  if (port_text.empty() || port_text.size() > 5 ||
+      port_text.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port_text) > 65535)
+    return bad("has no port in [0, 65535]");
+  ListenAddress out;
+  out.port = static_cast<std::uint16_t>(std::stoi(port_text));
+  if (host == "localhost") {
+    out.host = "127.0.0.1";
+    out.loopback = true;
+    return out;
+  }
+  if (host.front() == '[') {
+    in6_addr a6{};
+    if (host.size() < 3 || host.back() != ']' ||
+        inet_pton(AF_INET6, host.substr(1, host.size() - 2).c_str(), &a6) != 1)
+      return bad("has no valid IPv6 address in brackets");
+    out.host = host;
+    out.loopback = IN6_IS_ADDR_LOOPBACK(&a6);
+    return out;
+  }
+  in_addr a4{};
+  if (inet_pton(AF_INET, host.c_str(), &a4) != 1)
+    return bad("has no numeric IPv4 address (host names are not resolved)");
+  out.host = host;
+  out.loopback = (ntohl(a4.s_addr) >> 24) == 127;
+  return out;
 }
 
 std::int32_t scene_strength(const std::vector<std::pair<std::string, std::int32_t>>& shards,

@@ -60,7 +60,22 @@ struct DaemonConfig {
   std::string log_level = "info";         ///< trace | debug | info | warn | error | off
   std::string log_file;                   ///< "" = stderr only
   double timing_summary_period_s = 10.0;  ///< info line with frame-time percentiles; 0 = off
+
+  // metrics:
+  /// Prometheus endpoint GET /metrics, "HOST:PORT" (parse_listen_address); "" = off.
+  std::string metrics_listen;
 };
+
+/// metrics.listen, parsed: where the metrics endpoint listens.
+struct ListenAddress {
+  std::string host;        ///< "127.0.0.1", "[::1]": a numeric address, IPv6 in brackets
+  std::uint16_t port = 0;  ///< 0: any free port (logged at the start)
+  bool loopback = false;   ///< 127.0.0.0/8 or ::1: reachable from this host only
+};
+
+/// Parses "HOST:PORT": HOST a numeric IPv4 address, a bracketed IPv6 address or
+/// `localhost` (127.0.0.1), PORT 0..65535. The error message names metrics.listen.
+Expected<ListenAddress> parse_listen_address(std::string_view text);
 
 /// Parses a configuration document. Keys not given keep their defaults; unknown keys,
 /// wrong types and out-of-range values are errors (kParse / kInvalidArgument) whose

@@ -99,6 +99,9 @@ Status DdsOutbox::create(dds_entity_t participant) {
                                   answer_lease_, w.stats);
         !st)
       return st;
+    if (const dds_return_t rc = dds_get_instance_handle(w.stats, &w.stats_handle); rc < 0)
+      return Error{ErrorCode::kIo,
+                   "dds_get_instance_handle(FrameStats writer): " + protocol::dds_error(rc)};
   }
   return create_writer(publisher, participant, protocol::Topic::kStatus, ownership_strength_,
                        protocol::kLivelinessLease, status_writer_);
@@ -115,6 +118,12 @@ void DdsOutbox::watch(IncompatibleQosMonitor& monitor) const {
 const DdsOutbox::AnswerWriters& DdsOutbox::answer_writers(std::string_view scene) const {
   // Every strength scene_strength() can return has its writers (create()).
   return answer_writers_.at(scene_strength(shard_strengths_, ownership_strength_, scene));
+}
+
+bool DdsOutbox::own_stats_writer(dds_instance_handle_t writer) const {
+  for (const auto& [strength, w] : answer_writers_)
+    if (w.stats_handle == writer) return true;
+  return false;
 }
 
 void DdsOutbox::write_failed(const char* topic, dds_return_t rc) {

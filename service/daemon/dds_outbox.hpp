@@ -44,6 +44,9 @@ class DdsOutbox final : public Outbox {
   void set_state(ServiceState state, const std::string& message);
 
   [[nodiscard]] const std::string& service_id() const { return service_id_; }
+  /// Whether `writer` (a sample's publication handle) is one of this outbox's FrameStats
+  /// writers (after create()).
+  [[nodiscard]] bool own_stats_writer(dds_instance_handle_t writer) const;
   /// Failed writes so far (each is logged).
   [[nodiscard]] std::uint64_t write_errors() const { return write_errors_.load(); }
 
@@ -56,6 +59,7 @@ class DdsOutbox final : public Outbox {
   struct AnswerWriters {
     dds_entity_t forces = 0;
     dds_entity_t stats = 0;
+    dds_instance_handle_t stats_handle = 0;
   };
   [[nodiscard]] const AnswerWriters& answer_writers(std::string_view scene) const;
 

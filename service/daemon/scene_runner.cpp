@@ -6,7 +6,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <exception>
+#include <memory>
+#include <mutex>
 
 #include "samples.hpp"
 #include "tetcollide.h"
@@ -82,14 +86,35 @@ std::uint64_t next_answer_id() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
+/// The deliberate leak of test_leak_bytes_per_removal(): the blocks stay reachable (so a
+/// leak checker does not report them) but are never given back.
+void keep_for_test(std::size_t bytes) {
+  static std::mutex mutex;
+  static std::vector<std::unique_ptr<char[]>> kept;
+  auto block = std::make_unique<char[]>(bytes);
+  std::memset(block.get(), 0x5a, bytes);  // resident, not just reserved
+  std::lock_guard lock(mutex);
+  kept.push_back(std::move(block));
+}
+
 }  // namespace
 
+std::size_t test_leak_bytes_per_removal() {
+  static const std::size_t bytes = [] {
+    const char* v = std::getenv("TETCOLLIDED_TEST_LEAK_BYTES_PER_REMOVAL");
+    return v == nullptr ? std::size_t{0} : static_cast<std::size_t>(std::strtoull(v, nullptr, 10));
+  }();
+  return bytes;
+}
+
 SceneRunner::SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
-                         TopologyResultSink on_topology, double timing_summary_period_s)
+                         TopologyResultSink on_topology, double timing_summary_period_s,
+                         std::shared_ptr<SceneMetrics> metrics)
     : scene_(std::move(scene)),
       pipeline_(config),
       outbox_(outbox),
       on_topology_(std::move(on_topology)),
+      metrics_(std::move(metrics)),
       summary_period_(timing_summary_period_s) {}
 
 void SceneRunner::run(SceneJob& job) {
@@ -137,6 +162,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
   if (st) {
     active_[job.object] = job.version;
     failed_.erase(job.object);
+    if (metrics_) metrics_->set_objects(active_.size());
     // A new version has no state yet: the pipeline leaves the object out of contact
     // until its first state of this version (ContactForces.left_out).
     state_frame_.erase(job.object);
@@ -184,6 +210,8 @@ void SceneRunner::run_remove(const RemoveJob& job) {
   msg.message = "object removed";
   active_.erase(it);
   state_frame_.erase(job.object);
+  if (metrics_) metrics_->set_objects(active_.size());
+  if (const std::size_t leak = test_leak_bytes_per_removal(); leak > 0) keep_for_test(leak);
   spdlog::info("{}/{}: removed", scene_, job.object);
   outbox_.publish_status(msg);
 }
@@ -301,6 +329,9 @@ void SceneRunner::run_frame(FrameJob& job) {
         stats.core.narrow_ms, stats.core.depth_ms, stats.core.response_ms, stats.publish_ms,
         stats.core.candidate_pairs, stats.core.overlapping_pairs, stats.core.contacts);
   report_timing(stats.core.total_ms, latency);
+  if (metrics_)
+    metrics_->frame_done(stats.core.total_ms / 1e3, latency / 1e3, active_.size(),
+                         stats.core.contacts, job.dropped_frames);
 }
 
 void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output,

@@ -14,6 +14,7 @@
 
 #include "core/pipeline/pipeline.hpp"
 #include "frame_assembler.hpp"
+#include "metrics.hpp"
 #include "outbox.hpp"
 
 namespace tc::daemon {
@@ -69,10 +70,18 @@ struct TopologyResult {
 };
 using TopologyResultSink = std::function<void(TopologyResult)>;
 
+/// Test-only (docs/RELIABILITY.md "Soak"): the value of the environment variable
+/// TETCOLLIDED_TEST_LEAK_BYTES_PER_REMOVAL, read once; 0 when unset. When set, every
+/// object removal keeps that many bytes for the life of the process, on purpose: the leak
+/// the soak must catch. Never set it in production (the daemon warns at the start).
+std::size_t test_leak_bytes_per_removal();
+
 class SceneRunner {
  public:
+  /// `metrics`: the scene's Prometheus series (metrics.listen), or null.
   SceneRunner(std::string scene, const PipelineConfig& config, Outbox& outbox,
-              TopologyResultSink on_topology, double timing_summary_period_s);
+              TopologyResultSink on_topology, double timing_summary_period_s,
+              std::shared_ptr<SceneMetrics> metrics = nullptr);
 
   void run(SceneJob& job);
 
@@ -103,6 +112,7 @@ class SceneRunner {
   std::map<std::string, std::int64_t, std::less<>> state_frame_;
   std::vector<double> stiffness_rows_;  ///< reused per object
   std::vector<double> damping_rows_;    ///< reused per object
+  std::shared_ptr<SceneMetrics> metrics_;
 
   // Periodic timing summary.
   std::chrono::duration<double> summary_period_;

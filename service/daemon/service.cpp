@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <mutex>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "dds_outbox.hpp"
+#include "metrics.hpp"
 #include "protocol.hpp"
 #include "router.hpp"
 #include "samples.hpp"
@@ -54,6 +56,11 @@ struct Service::Impl {
 
   DaemonConfig config;
   DdsOutbox outbox;
+  /// With metrics.listen: the series, and the outbox that counts the rejections on the
+  /// way to `outbox`. `publish_to` is what the router and the runners publish to.
+  std::unique_ptr<Metrics> metrics;
+  std::unique_ptr<CountingOutbox> counting;
+  Outbox* publish_to = &outbox;
   IncompatibleQosMonitor qos_monitor;
   std::unique_ptr<Scheduler> scheduler;
   std::unique_ptr<Router> router;
@@ -62,6 +69,10 @@ struct Service::Impl {
   dds_entity_t participant = 0;
   dds_entity_t topology_reader = 0;
   dds_entity_t state_reader = 0;
+  /// With metrics: FrameStats as clients get them (EXCLUSIVE ownership), to see whose
+  /// answers of each scene they take.
+  dds_entity_t stats_reader = 0;
+  dds_entity_t stats_cond = 0;
   dds_entity_t waitset = 0;
   dds_entity_t wakeup = 0;  // guard condition: stop requests and worker results
 
@@ -148,6 +159,24 @@ struct Service::Impl {
     if (n < 0) spdlog::error("dds_take(MeshState): {}", protocol::dds_error(n));
     return n >= 0;
   }
+
+  /// Takes the FrameStats samples: each came from the writer that owns its scene's
+  /// answers at that moment (EXCLUSIVE ownership), this daemon's or another's.
+  void take_stats() {
+    const dds_return_t n = protocol::take_all(
+        stats_reader,
+        [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+          for (std::size_t i = 0; i < samples.size(); ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* st = static_cast<const tetcollide_FrameStats*>(samples[i]);
+            metrics->answer_owner(protocol::bounded_view(st->scene), infos[i].publication_handle,
+                                  outbox.own_stats_writer(infos[i].publication_handle));
+          }
+          return true;
+        },
+        [](dds_return_t rc) { return log_loan_failure("FrameStats", rc); });
+    if (n < 0) spdlog::error("dds_take(FrameStats): {}", protocol::dds_error(n));
+  }
 };
 
 Service::Service(DaemonConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
@@ -178,15 +207,41 @@ Status Service::start() {
                        s.participant);
   if (Status st = s.outbox.create(s.participant); !st) return st;
   s.outbox.set_state(ServiceState::kStarting, "starting");
+  if (const std::size_t leak = test_leak_bytes_per_removal(); leak > 0)
+    spdlog::warn(
+        "TETCOLLIDED_TEST_LEAK_BYTES_PER_REMOVAL={}: this daemon keeps {} bytes per object "
+        "removal on purpose (a test-only switch for the soak, docs/RELIABILITY.md); never set "
+        "it in production",
+        leak, leak);
+  if (!c.metrics_listen.empty()) {
+    auto address = parse_listen_address(c.metrics_listen);
+    if (!address) return address.error();
+    s.metrics = std::make_unique<Metrics>();
+    s.metrics->set_write_errors([&s] { return s.outbox.write_errors(); });
+    if (Status st = s.metrics->listen(*address); !st) return st;
+    s.counting = std::make_unique<CountingOutbox>(s.outbox, *s.metrics);
+    s.publish_to = s.counting.get();
+    const std::string url =
+        "http://" + address->host + ":" + std::to_string(s.metrics->port()) + "/metrics";
+    if (address->loopback)
+      spdlog::info("metrics: serving {}", url);
+    else
+      spdlog::warn(
+          "metrics: serving {} on an address that is not loopback (metrics.listen = {}): every "
+          "host that reaches it can read the scene names and figures, without authentication; "
+          "restrict it with a firewall or use 127.0.0.1",
+          url, c.metrics_listen);
+  }
 
   s.scheduler =
       std::make_unique<Scheduler>(c.threads, c.max_queued_frames, [&s](const std::string& scene) {
         return std::make_unique<SceneRunner>(
-            scene, s.config.pipeline, s.outbox,
+            scene, s.config.pipeline, *s.publish_to,
             [&s](TopologyResult r) { s.post_result(std::move(r)); },
-            s.config.timing_summary_period_s);
+            s.config.timing_summary_period_s,
+            s.metrics ? s.metrics->scene(scene) : std::shared_ptr<SceneMetrics>());
       });
-  s.router = std::make_unique<Router>(s.config, s.outbox, *s.scheduler);
+  s.router = std::make_unique<Router>(s.config, *s.publish_to, *s.scheduler);
 
   const auto pqos = protocol::partition_qos(c.partition);
   const dds_entity_t subscriber = dds_create_subscriber(s.participant, pqos.get(), nullptr);
@@ -210,6 +265,13 @@ Status Service::start() {
   if (Status st = s.attach(s.wakeup, "guard condition"); !st) return st;
   if (Status st = s.attach(topo_cond, "MeshTopology"); !st) return st;
   if (Status st = s.attach(state_cond, "MeshState"); !st) return st;
+  if (s.metrics) {
+    if (Status st = s.create_reader(subscriber, protocol::Topic::kStats, s.stats_reader); !st)
+      return st;
+    s.stats_cond = dds_create_readcondition(s.stats_reader, DDS_ANY_STATE);
+    if (s.stats_cond < 0) return dds_failure("dds_create_readcondition(FrameStats)", s.stats_cond);
+    if (Status st = s.attach(s.stats_cond, "FrameStats"); !st) return st;
+  }
   return {};
 }
 
@@ -266,6 +328,11 @@ Status Service::run() {
       result = Error{ErrorCode::kIo, "reading from DDS failed (see the log)"};
       break;
     }
+    const auto fired = triggered.begin() + std::min<std::ptrdiff_t>(n, triggered.size());
+    if (s.stats_cond > 0 && std::any_of(triggered.begin(), fired, [&](dds_attach_t a) {
+          return a == static_cast<dds_attach_t>(s.stats_cond);
+        }))
+      s.take_stats();
     now = Clock::now();
     s.router->tick(now);
     // This loop is the one thread that must never stall: it pings the watchdog.

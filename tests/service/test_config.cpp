@@ -46,6 +46,7 @@ void expect_same(const DaemonConfig& a, const DaemonConfig& b) {
   EXPECT_EQ(a.log_level, b.log_level);
   EXPECT_EQ(a.log_file, b.log_file);
   EXPECT_EQ(a.timing_summary_period_s, b.timing_summary_period_s);
+  EXPECT_EQ(a.metrics_listen, b.metrics_listen);
 }
 
 TEST(Config, ShippedFileEqualsEmbeddedDefaults) {
@@ -90,6 +91,8 @@ log:
   level: debug
   file: /tmp/x.log
   timing_summary_period_s: 0
+metrics:
+  listen: 127.0.0.1:9464
 )");
   EXPECT_EQ(c.domain, 42u);
   EXPECT_EQ(c.service_id, "svc-a");
@@ -119,6 +122,7 @@ log:
   EXPECT_EQ(c.log_level, "debug");
   EXPECT_EQ(c.log_file, "/tmp/x.log");
   EXPECT_EQ(c.timing_summary_period_s, 0.0);
+  EXPECT_EQ(c.metrics_listen, "127.0.0.1:9464");
 }
 
 struct BadCase {
@@ -183,13 +187,54 @@ INSTANTIATE_TEST_SUITE_P(
                 "test.yaml:3:11", "must be a list"},
         BadCase{"yaml_syntax", "version: 1\ndds: [\n", ErrorCode::kParse,
                 "test.yaml:", "test.yaml"},
-        BadCase{"not_a_map", "- 1\n- 2\n", ErrorCode::kParse, "test.yaml:1:1", "map"}),
+        BadCase{"not_a_map", "- 1\n- 2\n", ErrorCode::kParse, "test.yaml:1:1", "map"},
+        BadCase{"metrics_no_port", "version: 1\nmetrics:\n  listen: 127.0.0.1\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:11", "metrics.listen"},
+        BadCase{"metrics_host_name", "version: 1\nmetrics:\n  listen: prometheus.lan:9464\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:11", "host names are not resolved"},
+        BadCase{"metrics_port_range", "version: 1\nmetrics:\n  listen: 127.0.0.1:70000\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:11", "port in [0, 65535]"},
+        BadCase{"metrics_unknown_key", "version: 1\nmetrics:\n  port: 9464\n", ErrorCode::kParse,
+                "test.yaml:3:3", "unknown key 'metrics.port'"}),
     [](const ::testing::TestParamInfo<BadCase>& p) { return std::string(p.param.name); });
 
 TEST(Config, MissingFileIsIo) {
   auto c = load_config("/nonexistent/tetcollided.yaml");
   ASSERT_FALSE(c.has_value());
   EXPECT_EQ(c.error().code, ErrorCode::kIo);
+}
+
+TEST(Config, MetricsListenAddresses) {
+  const auto loopback = parse_listen_address("127.0.0.1:9464");
+  ASSERT_TRUE(loopback.has_value());
+  EXPECT_EQ(loopback->host, "127.0.0.1");
+  EXPECT_EQ(loopback->port, 9464);
+  EXPECT_TRUE(loopback->loopback);
+  const auto localhost = parse_listen_address("localhost:0");
+  ASSERT_TRUE(localhost.has_value());
+  EXPECT_EQ(localhost->host, "127.0.0.1");
+  EXPECT_EQ(localhost->port, 0);
+  EXPECT_TRUE(localhost->loopback);
+  const auto v6 = parse_listen_address("[::1]:9464");
+  ASSERT_TRUE(v6.has_value());
+  EXPECT_EQ(v6->host, "[::1]");
+  EXPECT_TRUE(v6->loopback);
+  // Allowed, but not loopback: the daemon warns at the start.
+  for (const char* open : {"0.0.0.0:9464", "10.1.2.3:9464", "[::]:9464"}) {
+    const auto a = parse_listen_address(open);
+    ASSERT_TRUE(a.has_value()) << open;
+    EXPECT_FALSE(a->loopback) << open;
+  }
+  for (const char* bad : {"", ":9464", "127.0.0.1:", "127.0.0.1:x", "1.2.3:80", "[::1:80",
+                          "[zz]:80", "127.0.0.1:123456"}) {
+    const auto a = parse_listen_address(bad);
+    ASSERT_FALSE(a.has_value()) << bad;
+    EXPECT_EQ(a.error().message.rfind("metrics.listen: ", 0), 0u) << a.error().message;
+  }
+  EXPECT_EQ(parse_ok("version: 1\nmetrics:\n  listen: \"\"\n").metrics_listen, "");
+  DaemonConfig c;
+  c.metrics_listen = "nowhere";
+  EXPECT_FALSE(check_config(c));
 }
 
 TEST(Config, CheckConfigCatchesOverrides) {
