@@ -24,6 +24,7 @@
 #include <numbers>
 #include <optional>
 
+#include "core/detect/self_detect.hpp"
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/pipeline/pipeline.hpp"
@@ -123,6 +124,11 @@ void TurningTorusInBox(benchmark::State& state) {
   torus_in_box(state, 0.01);
 }
 
+/// SelfGate/<mesh>: SelfCollider::detect on an object that does not touch itself, every
+/// node moved each frame (a seeded offset of 1e-6 m): the surface gate alone. mesh 0: the
+/// torus (data/meshes/torus.msh), 1: the 303,918-tet structured box.
+void SelfGate(benchmark::State& state);
+
 TetMesh large_box(int cells) {
   return test::structured_box(cells, cells, cells, Eigen::Vector3d::Zero(),
                               Eigen::Vector3d::Ones());
@@ -148,6 +154,85 @@ void BuildTopology(benchmark::State& state) {
   state.counters["tets"] = static_cast<double>(mesh.num_tets());
 }
 
+/// Positions `x` moved by a seeded offset in [-m, m] per coordinate (frame `frame`).
+Positions jittered(const Positions& x, double m, std::int64_t frame) {
+  std::uint64_t h = 0x9e3779b97f4a7c15ULL * static_cast<std::uint64_t>(frame + 1);
+  Positions out = x;
+  for (Index i = 0; i < out.size(); ++i) {
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdULL;
+    h ^= h >> 29;
+    out.data()[i] += m * (static_cast<double>(h >> 11) * 0x1.0p-53 * 2.0 - 1.0);
+  }
+  return out;
+}
+
+void SelfGate(benchmark::State& state) {
+  std::optional<TetMesh> mesh = state.range(0) == 0 ? data_mesh("torus.msh") : large_box(37);
+  if (!mesh) {
+    state.SkipWithError("mesh not available");
+    return;
+  }
+  const Topology topo = build_topology(mesh->tets, mesh->num_nodes());
+  SelfCollider collider(mesh->tets, topo, mesh->positions);
+  std::vector<Positions> frames;
+  for (std::int64_t f = 0; f < 8; ++f) frames.push_back(jittered(mesh->positions, 1e-6, f));
+  SelfContacts out;
+  SelfDetectStats st;
+  std::size_t f = 0;
+  for (auto _ : state) {
+    collider.detect(frames[f++ % frames.size()], kDefaultRelativeTolerance, out, &st);
+    benchmark::DoNotOptimize(out.parts.data());
+  }
+  state.counters["faces"] = static_cast<double>(topo.boundary_faces.size());
+  state.counters["pairs_tested"] = static_cast<double>(st.surface_pairs);
+  state.counters["crossing"] = static_cast<double>(st.crossing_pairs);
+  state.counters["certificate_um"] = 1e6 * st.certificate;
+}
+
+/// SelfContactFrame/<mesh>/<self>: Pipeline::run_frame of one object alone (mesh as
+/// SelfGate), every node moved each frame, with ObjectParams::self_contact off (0) or on
+/// (1): what asking for self-contact adds to a frame of an object that does not touch
+/// itself.
+void SelfContactFrame(benchmark::State& state) {
+  std::optional<TetMesh> mesh = state.range(0) == 0 ? data_mesh("torus.msh") : large_box(37);
+  if (!mesh) {
+    state.SkipWithError("mesh not available");
+    return;
+  }
+  ObjectParams params;
+  params.self_contact = state.range(1) != 0;
+  Pipeline pipeline;
+  if (!pipeline.set_topology("organ", 1, *mesh, params)) {
+    state.SkipWithError("registration failed");
+    return;
+  }
+  std::vector<Positions> frames;
+  for (std::int64_t f = 0; f < 8; ++f) frames.push_back(jittered(mesh->positions, 1e-6, f));
+  std::vector<FrameObjectInput> states(1);
+  states[0].object = "organ";
+  states[0].topology_version = 1;
+  std::int64_t frame = 0;
+  std::size_t forces = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    states[0].positions = frames[static_cast<std::size_t>(frame) % frames.size()];
+    state.ResumeTiming();
+    const FrameOutput out = pipeline.run_frame_taking(frame++, states);
+    forces += out.forces.size() + out.errors.size();
+  }
+  state.counters["forces_or_errors"] = static_cast<double>(forces);
+}
+
+BENCHMARK(SelfGate)->Arg(0)->Arg(1)->ArgName("mesh")->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(SelfContactFrame)
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->ArgNames({"mesh", "self"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(TorusInBox)
     ->Args({1, 5000})
     ->Args({2, 5000})

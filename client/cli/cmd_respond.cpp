@@ -16,7 +16,11 @@
 // with --friction, Coulomb friction read it; friction is in the totals and --forces.
 // --jitter M moves every node of both objects by a seeded random offset in [-M, M] per
 // axis in each frame (outside the frame's time), so that --repeat times deforming frames.
+// `tetcollide respond FILE_A --self [...]`: one tet object and its self-contact (a fold,
+// fragments; docs/RESPONSE.md "Self-contact"), named `a` in every output, with the same JSON
+// keys (b's are zero; "kinds" names b "none"); the options that move b do not apply.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -54,6 +58,8 @@ struct RespondArgs {
   std::string lazy = "local";
   bool exact_check = false;
   bool json = false;
+  bool self = false;
+  bool response_given = false;
 };
 
 /// How the contact depths compare with the exact ones (--exact-check).
@@ -94,7 +100,86 @@ Status register_object(Pipeline& pipeline, const std::string& name, ObjectMesh m
   return {};
 }
 
+/// The timed frames of a run: per-frame times and the last frame's output.
+struct RespondRun {
+  FrameOutput output;
+  std::vector<double> times, detect_ms, depth_ms, response_ms;
+  void add(FrameOutput out) {
+    times.push_back(out.stats.total_ms);
+    detect_ms.push_back(out.stats.broad_ms + out.stats.narrow_ms);
+    depth_ms.push_back(out.stats.depth_ms);
+    response_ms.push_back(out.stats.response_ms);
+    output = std::move(out);
+  }
+};
+
+int report(const RespondArgs& args, const Pipeline& pipeline, const RespondRun& run,
+           const std::array<std::string, 2>& kinds,
+           const std::array<std::vector<std::int64_t>, 2>& ids, const std::array<double, 2>& diags);
+
+/// The usage errors of the two forms (FILE_A FILE_B, or FILE_A --self), or "".
+std::string usage_problem(const RespondArgs& args) {
+  if (!args.self) {
+    if (args.file_b.empty()) return "FILE_B is required (or --self for one object's self-contact)";
+    if (!args.response_given) return "--response is required";
+    return "";
+  }
+  if (!args.file_b.empty())
+    return "--self takes one mesh: FILE_B (" + args.file_b + ") is not used with it";
+  const std::pair<bool, const char*> b_only[] = {
+      {!args.move_b.empty(), "--move-b"},         {!args.turn_b.empty(), "--turn-b"},
+      {args.spin_b != 0.0, "--spin-b"},           {!args.scale_b.empty(), "--scale-b"},
+      {!args.velocity_b.empty(), "--velocity-b"}, {!args.broad.empty(), "--broad"}};
+  for (const auto& [given, name] : b_only)
+    if (given) return std::string(name) + " does not apply to --self (one object, no b)";
+  return "";
+}
+
+/// `respond FILE_A --self`: one tet object and its self-contact, reported as `a`.
+int run_self(const RespondArgs& args) {
+  auto read = read_object_mesh(args.file_a);
+  if (!read) return report_error(read.error());
+  if (!std::holds_alternative<TetMesh>(*read))
+    return report_error(Error{ErrorCode::kInvalidArgument,
+                              args.file_a + " is a surface: self-contact needs a tet mesh (a "
+                                            "depth map to push its nodes out of)"});
+  TetMesh mesh = std::get<TetMesh>(std::move(*read));
+  if (args.scale_a.size() == 3)
+    mesh.positions =
+        Eigen::Vector3d(args.scale_a[0], args.scale_a[1], args.scale_a[2]).asDiagonal() *
+        mesh.positions;
+  ObjectParams params;
+  params.stiffness = args.stiffness;
+  params.friction = args.friction;
+  params.friction_velocity = args.friction_velocity;
+  params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
+  params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
+  params.self_contact = true;
+  PipelineConfig config;
+  config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
+  config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
+                                                       : DepthEvaluation::kNearestFace;
+  config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
+  const double diag = bbox_diagonal(mesh.positions);
+  const std::vector<std::int64_t> ids = mesh.node_ids;
+  const Positions rest = mesh.positions;
+  Pipeline pipeline(config);
+  if (Status st = pipeline.set_topology("a", 0, std::move(mesh), params); !st)
+    return report_error(Error{st.error().code, args.file_a + ": " + st.error().message});
+  RespondRun run;
+  std::vector<FrameObjectInput> states(1);
+  states[0].object = "a";
+  for (int r = 0; r < std::max(1, args.repeat); ++r) {
+    jitter_positions(rest, args.jitter, r, 0, states[0].positions);
+    run.add(pipeline.run_frame_taking(r, states));
+  }
+  return report(args, pipeline, run, {"tets", "none"}, {ids, {}}, {diag, 0.0});
+}
+
 int run_respond(const RespondArgs& args) {
+  if (const std::string problem = usage_problem(args); !problem.empty())
+    return report_error(problem, kExitUsage);
+  if (args.self) return run_self(args);
   auto a = read_object_mesh(args.file_a);
   if (!a) return report_error(a.error());
   auto b = read_object_mesh(args.file_b);
@@ -151,8 +236,7 @@ int run_respond(const RespondArgs& args) {
   if (Status st = register_object(pipeline, "b", std::move(*b), params, args.file_b); !st)
     return report_error(st.error());
 
-  FrameOutput output;
-  std::vector<double> times, detect_ms, depth_ms, response_ms;
+  RespondRun run;
   const std::vector<FrameObjectInput> sent = states;
   for (int r = 0; r < std::max(1, args.repeat); ++r) {
     // As in the daemon, the states are made for the frame and the pipeline takes their
@@ -167,13 +251,23 @@ int run_respond(const RespondArgs& args) {
       if (Status st = turn_about_centre(states[1].positions, spin); !st)
         return report_error(st.error().message, kExitUsage);
     }
-    output = pipeline.run_frame_taking(r, states);
-    times.push_back(output.stats.total_ms);
-    detect_ms.push_back(output.stats.broad_ms + output.stats.narrow_ms);
-    depth_ms.push_back(output.stats.depth_ms);
-    response_ms.push_back(output.stats.response_ms);
+    run.add(pipeline.run_frame_taking(r, states));
   }
+  return report(args, pipeline, run, {kind_a, kind_b}, {ids_a, ids_b}, {diag_a, diag_b});
+}
+
+int report(const RespondArgs& args, const Pipeline& pipeline, const RespondRun& run,
+           const std::array<std::string, 2>& kinds,
+           const std::array<std::vector<std::int64_t>, 2>& node_ids,
+           const std::array<double, 2>& diags) {
+  const FrameOutput& output = run.output;
   for (const ObjectError& e : output.errors) return report_error(e.error);
+  const std::string& kind_a = kinds[0];
+  const std::string& kind_b = kinds[1];
+  const std::vector<std::int64_t>& ids_a = node_ids[0];
+  const std::vector<std::int64_t>& ids_b = node_ids[1];
+  const double diag_a = diags[0], diag_b = diags[1];
+  const std::vector<double>& times = run.times;
 
   Eigen::Vector3d total_a = Eigen::Vector3d::Zero(), total_b = Eigen::Vector3d::Zero();
   for (const ObjectForces& f : output.forces)
@@ -230,9 +324,10 @@ int run_respond(const RespondArgs& args) {
                         {"max_depth", output.stats.max_depth},
                         {"time_ms", time_ms},
                         {"stage_ms",
-                         {{"detect", median(detect_ms)},
-                          {"depth", median(depth_ms)},
-                          {"response", median(response_ms)}}}};
+                         {{"detect", median(run.detect_ms)},
+                          {"depth", median(run.depth_ms)},
+                          {"response", median(run.response_ms)}}}};
+    if (args.self) j["self"] = true;
     // Every object is a key, 0 when out of contact.
     nlohmann::json settled = {{"a", 0}, {"b", 0}};
     for (const auto& [name, n] : output.settled_by_object) settled[name] = n;
@@ -245,7 +340,9 @@ int run_respond(const RespondArgs& args) {
     return kExitOk;
   }
   const FrameStats& s = output.stats;
-  if (kind_a == "surface" || kind_b == "surface")
+  if (args.self)
+    std::printf("objects:           a %s, self-contact\n", kind_a.c_str());
+  else if (kind_a == "surface" || kind_b == "surface")
     std::printf("objects:           a %s, b %s\n", kind_a.c_str(), kind_b.c_str());
   std::printf("contacts:          %zu\n", s.contacts);
   std::printf("overlapping pairs: %zu (of %zu candidates)\n", s.overlapping_pairs,
@@ -278,8 +375,10 @@ void add_respond_command(CLI::App& app, Context& ctx) {
       "respond", "One frame of detection + lazy depth map + penalty response on two meshes");
   cmd->add_option("FILE_A", args->file_a, "Mesh of object a (tets, or a surface: .stl, .obj, .msh)")
       ->required();
-  cmd->add_option("FILE_B", args->file_b, "Mesh of object b (tets, or a surface: .stl, .obj, .msh)")
-      ->required();
+  cmd->add_option("FILE_B", args->file_b,
+                  "Mesh of object b (tets, or a surface: .stl, .obj, .msh); not with --self");
+  cmd->add_flag("--self", args->self,
+                "One tet object (FILE_A) and its self-contact, reported as a (no FILE_B)");
   cmd->add_option("--move-b", args->move_b, "Translate b by DX DY DZ (metres)")->expected(3);
   cmd->add_option("--turn-b", args->turn_b,
                   "Turn b by DEG degrees about the axis AX AY AZ through the centre of its box "
@@ -294,8 +393,8 @@ void add_respond_command(CLI::App& app, Context& ctx) {
       ->expected(3);
   cmd->add_option("--scale-b", args->scale_b, "Scale b by SX SY SZ about the origin (first)")
       ->expected(3);
-  cmd->add_option("--response", args->response, "Response: point, segment or auto")
-      ->required()
+  cmd->add_option("--response", args->response,
+                  "Response: point, segment or auto (required for two objects; --self: auto)")
       ->check(CLI::IsMember({"point", "segment", "auto"}));
   cmd->add_option("--depth", args->depth, "Depth map: cpfm, cffm or exact")
       ->check(CLI::IsMember({"cpfm", "cffm", "exact"}));
@@ -333,7 +432,10 @@ void add_respond_command(CLI::App& app, Context& ctx) {
   cmd->add_flag("--exact-check", args->exact_check,
                 "Compare each point contact's depth with the exact distance to the boundary");
   cmd->add_flag("--json", args->json, "Print one JSON object");
-  cmd->callback([&ctx, args] { ctx.exit_code = run_respond(*args); });
+  cmd->callback([&ctx, args, cmd] {
+    args->response_given = cmd->count("--response") > 0;
+    ctx.exit_code = run_respond(*args);
+  });
 }
 
 }  // namespace tc::cli

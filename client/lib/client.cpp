@@ -327,6 +327,7 @@ struct Client::Impl {
     s.params.friction_velocity = t.params.friction_velocity;
     s.params.blocks = t.params.blocks;
     s.params.contacts = t.params.contacts;
+    s.params.self_contact = t.params.self_contact;
     // The write's timestamp comes back in the service's verdict: a verdict on an earlier
     // write of the same version (kept in the status history) is not mistaken for this one.
     const dds_time_t stamp = dds_time();

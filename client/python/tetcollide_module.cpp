@@ -312,11 +312,12 @@ class PyClient {
                                 double max_force, bool is_static, const std::string& depth,
                                 const std::string& response, const py::object& node_ids_obj,
                                 std::uint32_t version, double friction, double friction_velocity,
-                                bool blocks, bool contacts) {
-    return register_cells(object, nodes_obj, tets_obj, "tets", 4,
-                          make_params(stiffness, damping, max_force, is_static, depth, response,
-                                      friction, friction_velocity, blocks, contacts),
-                          node_ids_obj, version);
+                                bool blocks, bool contacts, bool self_contact) {
+    tc::client::ObjectParams params =
+        make_params(stiffness, damping, max_force, is_static, depth, response, friction,
+                    friction_velocity, blocks, contacts);
+    params.self_contact = self_contact;
+    return register_cells(object, nodes_obj, tets_obj, "tets", 4, params, node_ids_obj, version);
   }
 
   std::uint32_t register_surface(const std::string& object, const py::object& nodes_obj,
@@ -933,7 +934,7 @@ objects). One thread per Client; every wait releases the GIL.)")
            py::arg("max_force") = 0.0, py::arg("static") = false, py::arg("depth") = "cpfm",
            py::arg("response") = "auto", py::arg("node_ids") = py::none(), py::arg("version") = 0,
            py::arg("friction") = 0.0, py::arg("friction_velocity") = 0.0, py::arg("blocks") = false,
-           py::arg("contacts") = false,
+           py::arg("contacts") = false, py::arg("self_contact") = false,
            R"(Publishes (or, after a cut, replaces) an object's topology; returns the version sent.
 
   nodes      (n, 3) float64 rest positions, metres
@@ -947,6 +948,7 @@ objects). One thread per Client; every wait releases the GIL.)")
   friction_velocity  m/s below which friction sticks viscously (0 = service default 1e-3)
   blocks     answers carry df/dx (stiffness) and df/dv (damping) blocks (protocol 3)
   contacts   answers carry the contacts behind the forces, ObjectForces.contacts (protocol 3)
+  self_contact  contact of the object with itself: a fold, torn fragments (protocol 3)
 
 The topology is copied once into the sample (the C++ API takes vectors). The service's
 verdict comes later: wait_registered(). Raises TypeError / ValueError on bad arguments.)")

@@ -63,6 +63,7 @@ Status write_sample(RecordingWriter& writer, RecordSummary& summary, protocol::T
         r.params.friction_velocity = s->params.friction_velocity;
         r.params.blocks = s->params.blocks;
         r.params.contacts = s->params.contacts;
+        r.params.self_contact = s->params.self_contact;
         st = writer.write(r);
         ++summary.topologies;
       }

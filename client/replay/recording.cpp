@@ -106,6 +106,8 @@ json encode(const TopologyRecord& r) {
               {"friction_velocity", r.params.friction_velocity},
               {"blocks", r.params.blocks},
               {"contacts", r.params.contacts}}}};
+  // Written only when on: recordings of objects without self-contact stay as they were.
+  if (r.params.self_contact) j["params"]["self_contact"] = true;
   // Only surface objects carry triangles: tet recordings stay as they were.
   if (!r.mesh.triangles.empty()) j["triangles"] = r.mesh.triangles;
   return j;
@@ -186,6 +188,7 @@ Record decode(const json& j) {
       r.params.friction_velocity = p.at("friction_velocity").get<double>();
     if (p.contains("blocks")) r.params.blocks = p.at("blocks").get<bool>();
     if (p.contains("contacts")) r.params.contacts = p.at("contacts").get<bool>();
+    if (p.contains("self_contact")) r.params.self_contact = p.at("self_contact").get<bool>();
     return r;
   }
   if (type == "remove") {

@@ -25,8 +25,11 @@ double ms_since(Clock::time_point start) {
 /// Leaves of the surface BVH hold at most this many triangles.
 constexpr Index kLeafFaces = 4;
 /// A patch whose normals lie within this half-angle of one axis (and that is connected)
-/// is not tested against itself: just under 90 degrees.
-constexpr double kCullCone = 0.5 * std::numbers::pi - 1e-6;
+/// is not tested against itself (below 90 degrees it cannot fold onto itself).
+/// A patch is culled only when its certificate (how far its corners may move before its
+/// cone could reach 90 degrees, SelfCollider::detect) is at least a fifth of near_gap_:
+/// one just under the limit is looked into instead, and its smaller parts give more.
+constexpr double kCullCone = 85.0 * std::numbers::pi / 180.0;
 /// Chunk sizes of the parallel loops (fixed: the output does not depend on the threads).
 constexpr std::size_t kFaceChunk = 2048;
 constexpr std::size_t kTetChunk = 256;
@@ -126,6 +129,49 @@ bool meets_padded_box(const Vec3& slo, const Vec3& shi, const Vec3& lo, const Ve
   return (slo.array() <= hi.array() + tol).all() && (shi.array() >= lo.array() - tol).all();
 }
 
+/// The largest gap between two boxes along an axis (> 0 when they are apart), metres.
+double box_gap(const Aabb& a, const Aabb& b) {
+  return std::max(0.0, ((a.lo - b.hi).cwiseMax(b.lo - a.hi)).maxCoeff());
+}
+
+/// A lower bound of the distance between two triangles: the largest gap between their
+/// projections on the separating axes of two triangles (both normals, the 9 edge-edge
+/// cross products, and each normal crossed with its triangle's edges for coplanar ones), 0
+/// when none separates.
+double separation(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t) {
+  const Vec3 o = s[0];
+  std::array<Vec3, 3> a, b;
+  for (std::size_t k = 0; k < 3; ++k) {
+    a[k] = s[k] - o;
+    b[k] = t[k] - o;
+  }
+  double best = 0.0;
+  const auto axis = [&](const Vec3& u) {
+    const double len = u.norm();
+    if (!(len > 0.0) || !std::isfinite(len)) return;
+    double lo_a = std::numeric_limits<double>::infinity(), hi_a = -lo_a, lo_b = lo_a, hi_b = -lo_a;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const double pa = a[k].dot(u), pb = b[k].dot(u);
+      lo_a = std::min(lo_a, pa);
+      hi_a = std::max(hi_a, pa);
+      lo_b = std::min(lo_b, pb);
+      hi_b = std::max(hi_b, pb);
+    }
+    best = std::max(best, std::max(lo_b - hi_a, lo_a - hi_b) / len);
+  };
+  const Vec3 na = (a[1] - a[0]).cross(a[2] - a[0]);
+  const Vec3 nb = (b[1] - b[0]).cross(b[2] - b[0]);
+  axis(na);
+  axis(nb);
+  for (std::size_t i = 0; i < 3; ++i) {  // in-plane axes: what separates coplanar triangles
+    axis(na.cross(a[(i + 1) % 3] - a[i]));
+    axis(nb.cross(b[(i + 1) % 3] - b[i]));
+  }
+  for (std::size_t i = 0; i < 3; ++i)
+    for (std::size_t j = 0; j < 3; ++j) axis((a[(i + 1) % 3] - a[i]).cross(b[(j + 1) % 3] - b[j]));
+  return best;
+}
+
 /// Smallest cone holding two cones (unit axes, half-angles in radians); a half-angle of
 /// pi or more means "no cone".
 std::pair<Vec3, double> merge_cones(const Vec3& a1, double t1, const Vec3& a2, double t2) {
@@ -183,7 +229,10 @@ struct SelfCollider::SurfaceNode {
   double cone = std::numbers::pi;  ///< normal cone half-angle, radians (pi: none)
   Index begin = 0, end = 0;        ///< its faces: items_[begin, end)
   Index right = -1;                ///< right child; -1 for a leaf
-  bool connected = false;          ///< its faces form one edge-connected patch
+  bool connected = false;          ///< its faces form one patch (through corners)
+  /// min over its faces of |e1 x e2| / (16 L) (L the longest edge): a corner displacement
+  /// of at most this times sin(a) turns no face normal by more than a.
+  double reach = 0.0;
   [[nodiscard]] bool leaf() const { return right < 0; }
 };
 
@@ -208,6 +257,14 @@ SelfCollider::SelfCollider(std::span<const Tet> tets, const Topology& topology,
   }
   edge_tets_ = csr_from_pairs(static_cast<Index>(topology.edges.size()), edge_tet);
   build_surface_tree(rest);
+  double sum = 0.0;
+  for (const auto& tri : topology.boundary_faces)
+    for (int k = 0; k < 3; ++k)
+      sum += (rest.col(tri[static_cast<std::size_t>(k)]) -
+              rest.col(tri[static_cast<std::size_t>((k + 1) % 3)]))
+                 .norm();
+  const auto edges = 3 * topology.boundary_faces.size();
+  near_gap_ = edges > 0 ? 0.05 * sum / static_cast<double>(edges) : 0.0;
 }
 
 SelfCollider::~SelfCollider() = default;
@@ -250,28 +307,9 @@ void SelfCollider::build_surface_tree(const Positions& rest) {
     return id;
   };
   build(build, 0, k);
-  // Which nodes hold one edge-connected patch: a flood over the faces' shared boundary
-  // edges that stays in the node's range.
-  std::vector<std::pair<std::array<Index, 2>, Index>> edge_face;
-  edge_face.reserve(faces.size() * 3);
-  for (Index f = 0; f < k; ++f)
-    for (int j = 0; j < 3; ++j) {
-      Index a = faces[static_cast<std::size_t>(f)][static_cast<std::size_t>(j)];
-      Index b = faces[static_cast<std::size_t>(f)][static_cast<std::size_t>((j + 1) % 3)];
-      if (a > b) std::swap(a, b);
-      edge_face.push_back({{a, b}, f});
-    }
-  std::sort(edge_face.begin(), edge_face.end());
-  std::vector<std::pair<Index, Index>> adjacent;  // (face, face across an edge)
-  for (std::size_t i = 0; i < edge_face.size();) {
-    std::size_t j = i;
-    while (j < edge_face.size() && edge_face[j].first == edge_face[i].first) ++j;
-    for (std::size_t u = i; u < j; ++u)
-      for (std::size_t v = i; v < j; ++v)
-        if (u != v) adjacent.emplace_back(edge_face[u].second, edge_face[v].second);
-    i = j;
-  }
-  const Csr neighbours = csr_from_pairs(k, adjacent);
+  // Which nodes hold one connected patch (faces connected through shared corners): a
+  // flood over the faces around each corner that stays in the node's range.
+  const Csr& around = topology_.node_boundary_faces;
   std::vector<Index> position(faces.size());
   for (Index i = 0; i < k; ++i) position[static_cast<std::size_t>(items_[i])] = i;
   std::vector<std::uint32_t> seen(faces.size(), 0);
@@ -282,15 +320,44 @@ void SelfCollider::build_surface_tree(const Positions& rest) {
     queue.assign(1, items_[node.begin]);
     seen[static_cast<std::size_t>(items_[node.begin])] = stamp;
     for (std::size_t q = 0; q < queue.size(); ++q)
-      for (const Index g : neighbours.row(queue[q])) {
-        const Index at = position[static_cast<std::size_t>(g)];
-        if (at < node.begin || at >= node.end || seen[static_cast<std::size_t>(g)] == stamp)
-          continue;
-        seen[static_cast<std::size_t>(g)] = stamp;
-        queue.push_back(g);
-      }
+      for (const Index v : faces[static_cast<std::size_t>(queue[q])])
+        for (const Index g : around.row(v)) {
+          const Index at = position[static_cast<std::size_t>(g)];
+          if (at < node.begin || at >= node.end || seen[static_cast<std::size_t>(g)] == stamp)
+            continue;
+          seen[static_cast<std::size_t>(g)] = stamp;
+          queue.push_back(g);
+        }
     node.connected = static_cast<Index>(queue.size()) == node.end - node.begin;
   }
+  // Borders.
+  std::vector<std::pair<Index, Index>> border;  // (tree node, corner)
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const SurfaceNode& node = nodes_[i];
+    for (Index j = node.begin; j < node.end; ++j)
+      for (const Index v : faces[static_cast<std::size_t>(items_[j])])
+        for (const Index g : topology_.node_boundary_faces.row(v)) {
+          const Index at = position[static_cast<std::size_t>(g)];
+          if (at < node.begin || at >= node.end) {
+            border.emplace_back(static_cast<Index>(i), v);
+            break;
+          }
+        }
+  }
+  borders_ = csr_from_pairs(static_cast<Index>(nodes_.size()), border);
+}
+
+bool SelfCollider::adjacent(Index a, Index b) const {
+  const auto u = borders_.row(a), v = borders_.row(b);
+  std::size_t i = 0, j = 0;
+  while (i < u.size() && j < v.size()) {
+    if (u[i] == v[j]) return true;
+    if (u[i] < v[j])
+      ++i;
+    else
+      ++j;
+  }
+  return false;
 }
 
 bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats& st) {
@@ -299,6 +366,7 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
   if (nodes_.empty()) return false;
   face_boxes_.resize(faces.size());
   face_normals_.resize(faces.size());
+  face_reach_.resize(faces.size());
   detail::for_chunks(
       faces.size(), kFaceChunk, [&](std::size_t begin, std::size_t end, std::size_t) {
         for (std::size_t f = begin; f < end; ++f) {
@@ -311,6 +379,9 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
           const Vec3 n = (b - a).cross(c - a);
           const double len = n.norm();
           face_normals_[f] = len > 0.0 && std::isfinite(len) ? Vec3(n / len) : Vec3::Zero();
+          const double longest =
+              std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+          face_reach_[f] = longest > 0.0 ? len / (16.0 * std::sqrt(longest)) : 0.0;
         }
       });
   // Refit bottom-up: children follow their parent in pre-order.
@@ -327,6 +398,9 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
         sum += face_normals_[f];
       }
       node.box = box;
+      node.reach = std::numeric_limits<double>::infinity();
+      for (Index j = node.begin; j < node.end; ++j)
+        node.reach = std::min(node.reach, face_reach_[static_cast<std::size_t>(items_[j])]);
       const double len = sum.norm();
       if (degenerate || !(len > 0.0)) {
         node.cone = std::numbers::pi;
@@ -343,19 +417,33 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
       const SurfaceNode& r = nodes_[static_cast<std::size_t>(node.right)];
       node.box = l.box;
       node.box.extend(r.box);
+      node.reach = std::min(l.reach, r.reach);
       const auto [axis, cone] = merge_cones(l.axis, l.cone, r.axis, r.cone);
       node.axis = axis;
       node.cone = cone;
     }
   }
-  // Self-traversal.
+  // Self-traversal. `cert`: how far every corner may move (after a common translation)
+  // with every decision below unchanged.
+  double cert = std::numeric_limits<double>::infinity();
+  const auto cone_slack = [](double cone, double reach) {
+    return reach * std::sin(std::max(0.0, 0.5 * std::numbers::pi - cone));
+  };
   const auto test = [&](Index fi, Index gi) {
     const auto f = static_cast<std::size_t>(fi), g = static_cast<std::size_t>(gi);
-    if (share_node(faces[f], faces[g]) || !face_boxes_[f].overlaps(face_boxes_[g])) return;
-    ++st.surface_pairs;
+    if (share_node(faces[f], faces[g])) return;
     const std::array<Vec3, 3> s{x.col(faces[f][0]), x.col(faces[f][1]), x.col(faces[f][2])};
     const std::array<Vec3, 3> t{x.col(faces[g][0]), x.col(faces[g][1]), x.col(faces[g][2])};
-    if (triangles_meet(s, t, rel)) crossing_.push_back({std::min(fi, gi), std::max(fi, gi)});
+    if (!face_boxes_[f].overlaps(face_boxes_[g])) {  // boxes that nearly touch: the triangles'
+      const double gap = box_gap(face_boxes_[f], face_boxes_[g]);  // own gap, if larger
+      cert = std::min(cert, 0.5 * (gap >= near_gap_ ? gap : std::max(gap, separation(s, t))));
+      return;
+    }
+    ++st.surface_pairs;
+    if (triangles_meet(s, t, rel))
+      crossing_.push_back({std::min(fi, gi), std::max(fi, gi)});
+    else
+      cert = std::min(cert, 0.5 * separation(s, t));
   };
   std::vector<std::pair<Index, Index>> stack;
   stack.emplace_back(0, 0);
@@ -364,19 +452,38 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
     stack.pop_back();
     const SurfaceNode& a = nodes_[static_cast<std::size_t>(i)];
     if (i == j) {
+      if (a.connected && a.cone < kCullCone &&  // a patch that cannot fold onto itself
+          cone_slack(a.cone, a.reach) >= 0.2 * near_gap_) {
+        cert = std::min(cert, cone_slack(a.cone, a.reach));
+        continue;
+      }
       if (a.leaf()) {
         for (Index u = a.begin; u < a.end; ++u)
           for (Index v = u + 1; v < a.end; ++v) test(items_[u], items_[v]);
         continue;
       }
-      if (a.connected && a.cone < kCullCone) continue;  // a patch that cannot fold onto itself
       stack.emplace_back(i + 1, i + 1);
       stack.emplace_back(a.right, a.right);
       stack.emplace_back(i + 1, a.right);
       continue;
     }
     const SurfaceNode& b = nodes_[static_cast<std::size_t>(j)];
-    if (!a.box.overlaps(b.box)) continue;
+    const double gap = a.box.overlaps(b.box) ? 0.0 : box_gap(a.box, b.box);
+    if (gap >= near_gap_) {
+      cert = std::min(cert, 0.5 * gap);
+      continue;
+    }
+    // (Boxes that touch or nearly do: the finer nodes say how far apart they are.)
+    // Two patches that meet at a corner and whose normals together fit in a cone below 90
+    // degrees are one patch that cannot fold onto itself.
+    if (a.connected && b.connected && a.cone < kCullCone && b.cone < kCullCone) {
+      const double cone = merge_cones(a.axis, a.cone, b.axis, b.cone).second;
+      const double slack = cone_slack(cone, std::min(a.reach, b.reach));
+      if (cone < kCullCone && slack >= 0.2 * near_gap_ && adjacent(i, j)) {
+        cert = std::min(cert, slack);
+        continue;
+      }
+    }
     if (a.leaf() && b.leaf()) {
       for (Index u = a.begin; u < a.end; ++u)
         for (Index v = b.begin; v < b.end; ++v) test(items_[u], items_[v]);
@@ -392,7 +499,35 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
   }
   std::sort(crossing_.begin(), crossing_.end());
   st.crossing_pairs = crossing_.size();
+  // A certificate only where nothing crosses, from these positions.
+  cert_ = crossing_.empty() && std::isfinite(cert) ? cert : 0.0;
+  st.certificate = cert_;
+  if (cert_ > 0.0) {
+    const auto& nodes = topology_.boundary_nodes;
+    cert_x_.resize(nodes.size());
+    for (std::size_t k = 0; k < nodes.size(); ++k) cert_x_[k] = x.col(nodes[k]);
+  }
   return !crossing_.empty();
+}
+
+bool SelfCollider::within_certificate(const Positions& x) const {
+  if (!(cert_ > 0.0)) return false;
+  const auto& nodes = topology_.boundary_nodes;
+  const double limit2 = cert_ * cert_;
+  // Most frames: every node within the certificate as it is.
+  bool inside = true;
+  Vec3 mean = Vec3::Zero();
+  for (std::size_t k = 0; k < nodes.size(); ++k) {
+    const Vec3 d = x.col(nodes[k]) - cert_x_[k];
+    mean += d;
+    inside = inside && d.squaredNorm() <= limit2;
+  }
+  if (inside) return true;
+  // A translation of the whole boundary changes no crossing: remove the mean displacement.
+  mean /= static_cast<double>(std::max<std::size_t>(1, nodes.size()));
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    if (!((x.col(nodes[k]) - cert_x_[k] - mean).squaredNorm() <= limit2)) return false;
+  return true;
 }
 
 Aabb SelfCollider::flood_region(const Positions& x, double rel, SelfDetectStats& st) {
@@ -665,6 +800,12 @@ void SelfCollider::detect(const Positions& positions, double relative_tolerance,
   SelfDetectStats st;
   const double rel = relative_tolerance > 0.0 ? relative_tolerance : 0.0;
   const auto t0 = Clock::now();
+  if (within_certificate(positions)) {
+    st.certified = true;
+    st.surface_ms = ms_since(t0);
+    if (stats != nullptr) *stats = st;
+    return;
+  }
   const bool crossing = surface_gate(positions, rel, st);
   st.surface_ms = ms_since(t0);
   if (crossing) {

@@ -59,6 +59,12 @@ struct SelfContacts {
 
 /// What one SelfCollider::detect() call did.
 struct SelfDetectStats {
+  /// The boundary moved less than the last gate's certificate allows: no crossing, and
+  /// nothing else ran (SelfCollider::detect).
+  bool certified = false;
+  /// The certificate a gate that found no crossing left: how far each boundary node may
+  /// move (after a common translation) before the next gate runs, metres.
+  double certificate = 0.0;
   std::size_t surface_pairs = 0;   ///< boundary triangle pairs tested for crossing
   std::size_t crossing_pairs = 0;  ///< ... that cross (0: the frame stopped at the gate)
   std::size_t flooded_nodes = 0;   ///< boundary nodes found inside another tet of the object
@@ -85,6 +91,12 @@ class SelfCollider {
 
   /// The self-contacts at `positions` (3 x n, finite, no inverted tet: the pipeline's
   /// state check). `relative_tolerance` as DetectOptions::relative_tolerance.
+  ///
+  /// A gate that finds no crossing also measures how far every boundary node could move
+  /// (after one common translation) before any of its decisions could change: a box gap, a
+  /// triangle pair's separation, a normal cone's slack to 90 degrees (docs/DETECTION.md,
+  /// "Self-contact"). While the boundary stays that close to those positions, later calls
+  /// answer "no self-contact" from one pass over the boundary nodes.
   void detect(const Positions& positions, double relative_tolerance, SelfContacts& out,
               SelfDetectStats* stats = nullptr);
 
@@ -93,6 +105,9 @@ class SelfCollider {
   struct Frame;
   void build_surface_tree(const Positions& rest);
   bool surface_gate(const Positions& x, double relative_tolerance, SelfDetectStats& st);
+  /// True when the boundary nodes of `x` lie within cert_ of cert_x_ after removing their
+  /// mean displacement.
+  [[nodiscard]] bool within_certificate(const Positions& x) const;
   Aabb flood_region(const Positions& x, double relative_tolerance, SelfDetectStats& st);
   void tet_stage(const Positions& x, const Aabb& region, double relative_tolerance,
                  SelfContacts& out, SelfDetectStats& st);
@@ -102,11 +117,24 @@ class SelfCollider {
   // The surface BVH: nodes in pre-order (left child = next node), item ranges contiguous.
   std::vector<SurfaceNode> nodes_;
   std::vector<Index> items_;  ///< boundary faces in tree order
+  /// Per tree node, its border: the corners of its faces that are corners of faces outside
+  /// it too, sorted. Two nodes share a corner only on both their borders.
+  Csr borders_;
+  [[nodiscard]] bool adjacent(Index a, Index b) const;
   // Tet edges (the segment response's features): each tet's 6 edge ids (kTetEdges order,
   // ids into topology.edges) and each edge's tets.
   std::vector<std::array<Index, 6>> tet_edges_;
   Csr edge_tets_;
   // Per-frame buffers.
+  // The certificate of the last gate that found no crossing: the boundary nodes'
+  // positions then (by Topology::boundary_nodes) and how far each may move, metres (0:
+  // none).
+  std::vector<Eigen::Vector3d> cert_x_;
+  double cert_ = 0.0;
+  /// Node or triangle boxes nearer than this (a twentieth of the mean boundary edge at
+  /// rest) are looked into, not certified by their gap alone.
+  double near_gap_ = 0.0;
+  std::vector<double> face_reach_;  ///< per face: displacement that turns its normal <= slack
   std::vector<Aabb> face_boxes_;
   std::vector<Eigen::Vector3d> face_normals_;
   std::vector<std::array<Index, 2>> crossing_;  ///< boundary face pairs that cross

@@ -14,6 +14,7 @@
 #include "core/common/log.hpp"
 #include "core/depth/boundary_bvh.hpp"
 #include "core/depth/depth_solver.hpp"
+#include "core/depth/self_depth.hpp"
 #include "core/detect/detect.hpp"
 #include "core/detect/self_detect.hpp"
 #include "core/detect/surface_detect.hpp"
@@ -600,7 +601,8 @@ void Pipeline::Impl::respond(FrameOutput& out) {
     out.stats.max_depth = std::max(out.stats.max_depth, response.stats.max_depth);
     for (const PointContactRecord& c : response.point_contacts)
       out.point_contacts.push_back({c.intruder_is_a ? a.name : b.name,
-                                    c.intruder_is_a ? b.name : a.name, c.node, c.depth, c.normal});
+                                    c.intruder_is_a ? b.name : a.name, c.node, c.tet, c.depth,
+                                    c.normal});
     if (!response.a.nodes.empty()) add_object_forces(totals[a.name], response.a);
     if (!response.b.nodes.empty()) add_object_forces(totals[b.name], response.b);
     if (&a == &b) {  // the object is both sides: each row once, as its own intrusion
@@ -653,9 +655,15 @@ Expected<std::vector<double>> Pipeline::exact_depths(
       return Error{ErrorCode::kInvalidArgument, "exact_depths: node " + std::to_string(c.node) +
                                                     " of '" + c.object + "' out of range"};
     auto [it, fresh] = bvhs.try_emplace(c.penetrated);
-    if (fresh) {
-      const SceneObject& y = *target->second;
-      it->second.build(y.topology.boundary_faces, y.positions);
+    const SceneObject& y = *target->second;
+    if (fresh) it->second.build(y.topology.boundary_faces, y.positions);
+    if (intruder == target && y.self) {
+      if (c.tet < 0 || c.tet >= static_cast<Index>(y.mesh.tets.size()))
+        return Error{ErrorCode::kInvalidArgument, "exact_depths: tet " + std::to_string(c.tet) +
+                                                      " of '" + c.penetrated + "' out of range"};
+      out.push_back(exact_self_depth(it->second, y.topology, y.self->node_component, y.positions,
+                                     c.node, c.tet));
+      continue;
     }
     out.push_back(std::sqrt(it->second.nearest(x.col(c.node)).sq_dist));
   }

@@ -85,6 +85,7 @@ struct FramePointContact {
   std::string object;
   std::string penetrated;
   Index node = -1;  ///< node index in `object` (0-based, file order)
+  Index tet = -1;   ///< the tet of `penetrated` containing it
   double depth = 0.0;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
 };
@@ -192,7 +193,9 @@ class Pipeline {
 
   /// The exact reference for an audit: the distance from each contact's node, at the
   /// positions of the last frame, to the boundary of the object it penetrates (a BVH
-  /// over that object's boundary triangles), metres.
+  /// over that object's boundary triangles), metres. For a self-contact (object ==
+  /// penetrated), to the boundary of the penetrated tet's component outside the node's
+  /// neighbourhood (exact_self_depth()).
   /// @return kUnknownObject naming an object that is not registered; kInvalidArgument
   ///         for a node index out of range.
   Expected<std::vector<double>> exact_depths(std::span<const FramePointContact> contacts) const;

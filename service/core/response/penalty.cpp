@@ -135,25 +135,19 @@ struct Exclusion {
     if (target.self == nullptr || intruder.positions != target.positions) return e;
     e.y = &target;
     e.component = target.self->node_component[static_cast<std::size_t>(a)];
-    const Csr& adjacency = target.topology->node_adjacency;
-    e.near.push_back(a);
-    if (b >= 0) e.near.push_back(b);
-    std::size_t begin = 0;
-    for (int ring = 0; ring < target.self->rings; ++ring) {
-      const std::size_t end = e.near.size();
-      for (std::size_t i = begin; i < end; ++i)
-        for (const Index w : adjacency.row(e.near[i])) e.near.push_back(w);
-      begin = end;
-    }
-    std::sort(e.near.begin(), e.near.end());
-    e.near.erase(std::unique(e.near.begin(), e.near.end()), e.near.end());
+    const Index seeds[2] = {a, b};
+    e.near = nodes_within_rings(*target.topology, std::span<const Index>(seeds, b >= 0 ? 2 : 1),
+                                target.self->rings);
     return e;
   }
 
   [[nodiscard]] bool excludes(Index f) const {
     if (y == nullptr) return false;
-    const auto& tri = y->topology->boundary_faces[static_cast<std::size_t>(f)];
-    if (y->self->node_component[static_cast<std::size_t>(tri[0])] != component) return false;
+    const Topology& topo = *y->topology;
+    const auto owner =
+        static_cast<std::size_t>(topo.boundary_face_tet[static_cast<std::size_t>(f)]);
+    if (topo.tet_component[owner] != component) return false;
+    const auto& tri = topo.boundary_faces[static_cast<std::size_t>(f)];
     for (const Index w : tri)
       if (std::binary_search(near.begin(), near.end(), w)) return true;
     return false;

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/depth/self_depth.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
@@ -133,7 +134,7 @@ struct ResponseOptions {
 /// either end of an intruding edge).
 struct SelfContactView {
   std::span<const Index> node_component;  ///< n: component of each node (-1: no tet)
-  int rings = 2;
+  int rings = kSelfContactRings;
 };
 
 /// The face-connected component of each node's first tet (-1 for a node of no tet): the

@@ -107,6 +107,9 @@ struct ObjectParams {
   /// Answers carry the contacts behind this object's forces (ObjectForces::contacts), for
   /// position-based and constraint solvers (docs/PROTOCOL.md "Contacts").
   bool contacts = false;
+  /// Contact of the object with itself: a fold, or the fragments of a cut (tet objects;
+  /// docs/RESPONSE.md "Self-contact"). Its contacts name the object itself as `other`.
+  bool self_contact = false;
 };
 
 /// One point of a contact behind the forces (ObjectParams::contacts): the point
