@@ -22,6 +22,8 @@ DEB_PACKAGES += libfcl-dev libcgal-dev
 # required build dependency (its run-time libraries are in the tetcollided package's
 # Depends through dpkg-shlibdeps)
 DEB_PACKAGES += prometheus-cpp-dev
+# examples/bullet: the Bullet soft-body example and its test (optional: skipped without it)
+DEB_PACKAGES += libbullet-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test test-asan test-tsan test-tsan-unit fuzz fuzz-short fuzz-build demo format \
