@@ -304,6 +304,11 @@ TEST(SelfContact, AFoldOfOneComponentIsPushedApart) {
   }
   EXPECT_GT(from_left, 0u);
   EXPECT_GT(from_right, 0u);
+  // The pipeline's own exact reference for self-contacts says the same.
+  const auto exact = pipeline.exact_depths(out.point_contacts);
+  ASSERT_TRUE(exact.has_value());
+  for (std::size_t i = 0; i < exact->size(); ++i)
+    EXPECT_NEAR(out.point_contacts[i].depth, (*exact)[i], 1e-9);
 }
 
 // Off by default: the same bent U without self_contact gets nothing.
