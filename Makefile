@@ -49,7 +49,8 @@ help:
 	@echo "make format      clang-format every source file"
 	@echo "make reliability fault tests: killed client, 10 restarts, loss, SIGSTOP"
 	@echo "make load        4 clients x 2 objects x 60 Hz, 60,000-node objects"
-	@echo "make soak        3 minutes, 20 register/unregister cycles while streaming"
+	@echo "make soak        3 minutes, 20 register/unregister cycles while streaming; fails"
+	@echo "                 when the daemon's live heap grows per cycle (docs/RELIABILITY.md)"
 
 deps:
 	@missing=$$(for p in $(DEB_PACKAGES); do \

@@ -2,7 +2,8 @@
 //
 //   service_load --daemon PATH [--clients 4] [--objects 2] [--rate 60]
 //                [--cells 38] [--seconds 20] [--json]
-//   service_load --soak --daemon PATH [--seconds 180] [--cycles 20] [--json]
+//   service_load --soak --daemon PATH [--seconds 180] [--cycles 20] [--stream-clients 2]
+//                [--warmup-cycles 5] [--heap-limit-kb 8] [--json]
 //   service_load --worker --domain N --scene S [--objects 2] [--cells 38] [--rate 60]
 //                [--seconds 0]
 //
@@ -17,13 +18,20 @@
 // instead), the longest publish_states call, and the daemon's CPU (from
 // /proc/<pid>/stat, in % of one core) and RSS over the measured window.
 //
-// Soak mode: two workers stream (small objects, 60 Hz) for --seconds while this process
-// runs --cycles register/unregister cycles in a third scene: each cycle connects a new
-// client (new DDS participant), registers two objects, streams 30 lock-step frames,
-// removes the objects, waits for the service's REMOVED verdicts and disconnects. After
-// each cycle it samples the daemon's RSS, open file descriptors (/proc/<pid>/fd) and
-// threads (/proc/<pid>/task). Pass: RSS growth between the first cycle after warm-up
-// (cycle 5) and the last under 1%, fds and threads the same after every cycle.
+// Soak mode: --stream-clients workers (2) stream (small objects, 60 Hz) for --seconds
+// while this process runs --cycles register/unregister cycles in another scene: each
+// cycle connects a new client (new DDS participant), registers two objects, streams 30
+// lock-step frames, removes the objects, waits for the service's REMOVED verdicts and
+// disconnects. After each cycle it samples the daemon's live heap (glibc's bytes in use,
+// tetcollide_heap_in_use_bytes from its metrics endpoint, the least of 5 reads 100 ms
+// apart), RSS, open file descriptors (/proc/<pid>/fd) and threads (/proc/<pid>/task).
+// Pass: from cycle --warmup-cycles (5) on, the live heap's trend (Theil-Sen slope) and its
+// rise from the first to the last third of the samples both under --heap-limit-kb per
+// cycle; fds and threads the same after every cycle; every cycle succeeded. The RSS is
+// reported, not judged: it moves with the allocator's fragmentation, not with what the
+// daemon keeps (docs/RELIABILITY.md "Soak"). A daemon started with the test-only
+// TETCOLLIDED_TEST_LEAK_BYTES_PER_REMOVAL=N (the tool's environment is the daemon's)
+// keeps N bytes per removal, 2N per cycle, and must fail.
 //
 // Worker mode (also the client the reliability tests kill and stop): registers, prints
 // "streaming" on stderr, streams until --seconds passed (0: until SIGTERM/SIGINT), then
@@ -57,6 +65,11 @@ using namespace std::chrono_literals;
 using tc::bench::percentile;
 
 std::atomic<bool> g_stop{false};
+
+/// The soak's limit on the live heap's growth per register/unregister cycle, KB
+/// (--heap-limit-kb): above the noise of a healthy daemon, below the smallest leak the
+/// soak must catch (docs/RELIABILITY.md "Soak" has both).
+constexpr double kHeapLimitKb = 8.0;
 
 void on_signal(int) {
   g_stop.store(true);
@@ -365,34 +378,69 @@ bool wait_removed(tc::client::Client& c, const std::string& object, Clock::durat
   return false;
 }
 
-int run_soak(std::uint32_t domain, pid_t daemon, double seconds, int cycles, bool json) {
+/// The daemon's live heap (tetcollide_heap_in_use_bytes) now: the least of `reads`
+/// scrapes 100 ms apart, so that the buffers of a frame in flight do not count; -1 when the
+/// endpoint does not answer.
+double heap_in_use(int metrics_port, int reads) {
+  double least = -1.0;
+  for (int i = 0; i < reads; ++i) {
+    if (i > 0) std::this_thread::sleep_for(100ms);
+    const double v = tc::bench::metric_value(tc::bench::scrape_metrics(metrics_port),
+                                             "tetcollide_heap_in_use_bytes");
+    if (v >= 0.0 && (least < 0.0 || v < least)) least = v;
+  }
+  return least;
+}
+
+/// Theil-Sen slope of y over 0, 1, 2, ...: the median of the slopes of every pair of
+/// points, which a few outliers (a receive buffer swapped at one sample) do not move.
+double theil_sen_slope(const std::vector<double>& y) {
+  std::vector<double> slopes;
+  for (std::size_t i = 0; i < y.size(); ++i)
+    for (std::size_t j = i + 1; j < y.size(); ++j)
+      slopes.push_back((y[j] - y[i]) / static_cast<double>(j - i));
+  return slopes.empty() ? 0.0 : percentile(slopes, 0.5);
+}
+
+struct SoakArgs {
+  double seconds = 180.0;
+  int cycles = 20;
+  int stream_clients = 2;
+  int warmup_cycles = 5;       ///< cycles before the first judged sample
+  double heap_limit_kb = 0.0;  ///< per cycle; set in main()
+  int metrics_port = 0;
+};
+
+int run_soak(std::uint32_t domain, pid_t daemon, const SoakArgs& a, bool json) {
   const auto dir = std::filesystem::temp_directory_path() / ("tc-soak-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
-  auto workers = start_workers(dir, domain, 2, 2, 6, 60.0, seconds);
+  // The streams outlast the cycles by a few seconds: the last sample is taken while they
+  // still run, like every other.
+  auto workers = start_workers(dir, domain, a.stream_clients, 2, 6, 60.0, a.seconds + 5.0);
   if (!wait_streaming(workers, 60s)) {
     std::fprintf(stderr, "the workers did not all start streaming (logs in %s)\n", dir.c_str());
     return 1;
   }
   const auto start = Clock::now();
-  const auto cycle_period = std::chrono::duration<double>(seconds / cycles);
-  const tc::client::Mesh a = worker_mesh(8, 0);
-  const tc::client::Mesh b = worker_mesh(8, 1);
+  const auto cycle_period = std::chrono::duration<double>(a.seconds / a.cycles);
+  const tc::client::Mesh mesh_a = worker_mesh(8, 0);
+  const tc::client::Mesh mesh_b = worker_mesh(8, 1);
   nlohmann::json samples = nlohmann::json::array();
   int failures = 0;
-  for (int cycle = 0; cycle < cycles; ++cycle) {
+  for (int cycle = 0; cycle < a.cycles; ++cycle) {
     {
       tc::client::Options o;
       o.domain = domain;
       o.scene = "cycle";
       auto c = tc::client::Client::connect(o);
       bool ok = c->wait_for_service(20s);
-      c->register_object("a", a, {});
-      c->register_object("b", b, {});
+      c->register_object("a", mesh_a, {});
+      c->register_object("b", mesh_b, {});
       ok = ok && c->wait_registered("a", 20s).ok && c->wait_registered("b", 20s).ok;
       for (std::int64_t f = 0; ok && f < 30; ++f) {
-        auto pa = a.rest_positions;
+        auto pa = mesh_a.rest_positions;
         for (std::size_t i = 0; i < pa.size(); i += 3) pa[i] += 0.001 * static_cast<double>(f);
-        c->publish_states(f, {{"a", pa}, {"b", b.rest_positions}});
+        c->publish_states(f, {{"a", pa}, {"b", mesh_b.rest_positions}});
         const auto forces = c->wait_forces(f, 10s);
         ok = forces.has_value();
       }
@@ -405,52 +453,88 @@ int run_soak(std::uint32_t domain, pid_t daemon, double seconds, int cycles, boo
     // The participant is gone; give discovery a moment to drop it before sampling.
     std::this_thread::sleep_until(start + cycle_period * (cycle + 1));
     const auto f = tc::bench::proc_figures(daemon);
+    const double heap = heap_in_use(a.metrics_port, 5);
     samples.push_back({{"cycle", cycle + 1},
                        {"t_s", std::chrono::duration<double>(Clock::now() - start).count()},
                        {"rss_mb", f.rss_mb},
+                       {"heap_bytes", heap},
                        {"fds", f.fds},
                        {"threads", f.threads}});
     if (!json)
-      std::printf("cycle %2d  t %6.1f s  RSS %.2f MB  fds %d  threads %d  failed cycles %d\n",
-                  cycle + 1, samples.back()["t_s"].get<double>(), f.rss_mb, f.fds, f.threads,
-                  failures);
+      std::printf(
+          "cycle %2d  t %6.1f s  heap in use %8.1f KB  RSS %.2f MB  fds %d  threads %d  failed "
+          "cycles %d\n",
+          cycle + 1, samples.back()["t_s"].get<double>(), heap / 1024.0, f.rss_mb, f.fds, f.threads,
+          failures);
     std::fflush(stdout);
   }
   std::int64_t answered = 0;
   int failed = 0;
   for (const auto& s : wait_workers(workers, failed))
     answered += s["frames_answered"].get<std::int64_t>();
-  constexpr int kWarmup = 5;  // cycles before the reference sample
-  const auto& first = samples[std::min(kWarmup, cycles) - 1];
+  const int first_judged = std::clamp(a.warmup_cycles, 1, a.cycles);
+  const auto& first = samples[static_cast<std::size_t>(first_judged - 1)];
   const auto& last = samples.back();
-  const double growth = 100.0 * (last["rss_mb"].get<double>() - first["rss_mb"].get<double>()) /
-                        first["rss_mb"].get<double>();
+  // What the soak promises: nothing kept per register/unregister cycle. The live heap
+  // after warm-up, one sample per cycle: its trend (Theil-Sen) must stay under the limit,
+  // and so must its rise from the first to the last few samples, per cycle (a plateau).
+  std::vector<double> heap;
+  bool heap_read = true;
+  for (std::size_t i = static_cast<std::size_t>(first_judged - 1); i < samples.size(); ++i) {
+    heap.push_back(samples[i]["heap_bytes"].get<double>());
+    heap_read = heap_read && heap.back() >= 0.0;
+  }
+  const double slope = theil_sen_slope(heap);
+  const std::size_t ends = std::max<std::size_t>(1, heap.size() / 3);
+  const std::vector<double> head(heap.begin(), heap.begin() + static_cast<std::ptrdiff_t>(ends));
+  const std::vector<double> tail(heap.end() - static_cast<std::ptrdiff_t>(ends), heap.end());
+  const double rise = heap.size() > ends ? percentile(tail, 0.5) - percentile(head, 0.5) : 0.0;
+  const double rise_per_cycle =
+      heap.size() > ends ? rise / static_cast<double>(heap.size() - ends) : 0.0;
+  const double limit = 1024.0 * a.heap_limit_kb;
+  const bool heap_flat = heap_read && slope < limit && rise_per_cycle < limit;
+  const double rss_growth = 100.0 * (last["rss_mb"].get<double>() - first["rss_mb"].get<double>()) /
+                            first["rss_mb"].get<double>();
   bool fds_constant = true;
   bool threads_constant = true;
-  for (std::size_t i = kWarmup; i < samples.size(); ++i) {
+  for (std::size_t i = static_cast<std::size_t>(first_judged); i < samples.size(); ++i) {
     fds_constant = fds_constant && samples[i]["fds"] == first["fds"];
     threads_constant = threads_constant && samples[i]["threads"] == first["threads"];
   }
-  const bool pass = growth < 1.0 && fds_constant && threads_constant && failures == 0 &&
-                    failed == 0 && answered > 0;
-  const nlohmann::json out{{"seconds", seconds},
-                           {"cycles", cycles},
+  const bool pass = heap_flat && fds_constant && threads_constant && failures == 0 && failed == 0 &&
+                    (a.stream_clients == 0 || answered > 0);
+  const nlohmann::json out{{"seconds", a.seconds},
+                           {"cycles", a.cycles},
+                           {"stream_clients", a.stream_clients},
                            {"failed_cycles", failures},
                            {"failed_workers", failed},
                            {"stream_frames_answered", answered},
-                           {"rss_growth_percent", growth},
+                           {"heap_slope_bytes_per_cycle", slope},
+                           {"heap_rise_bytes_per_cycle", rise_per_cycle},
+                           {"heap_limit_bytes_per_cycle", limit},
+                           {"heap_read", heap_read},
+                           {"heap_flat", heap_flat},
+                           {"rss_growth_percent", rss_growth},
                            {"fds_constant", fds_constant},
                            {"threads_constant", threads_constant},
                            {"pass", pass},
                            {"samples", samples}};
-  if (json)
+  if (json) {
     std::printf("%s\n", out.dump(2).c_str());
-  else
+  } else {
     std::printf(
-        "RSS growth cycle %d -> %d: %.3f%%; fds constant: %s; threads constant: %s; "
-        "streamed frames answered: %lld; %s\n",
-        kWarmup, cycles, growth, fds_constant ? "yes" : "no", threads_constant ? "yes" : "no",
-        static_cast<long long>(answered), pass ? "PASS" : "FAIL");
+        "live heap, cycles %d -> %d: trend %+.2f KB/cycle (Theil-Sen), median of the last %zu "
+        "- first %zu samples %+.1f KB (%+.2f KB/cycle); limit %.1f KB/cycle: %s%s\n",
+        first_judged, a.cycles, slope / 1024.0, ends, ends, rise / 1024.0, rise_per_cycle / 1024.0,
+        a.heap_limit_kb, heap_flat ? "flat" : "GROWS",
+        heap_read ? "" : " (the metrics endpoint did not answer)");
+    std::printf(
+        "RSS cycle %d -> %d: %+.2f%% (not judged: the allocator's); fds constant: %s; threads "
+        "constant: %s; failed cycles: %d; streamed frames answered: %lld; %s\n",
+        first_judged, a.cycles, rss_growth, fds_constant ? "yes" : "no",
+        threads_constant ? "yes" : "no", failures, static_cast<long long>(answered),
+        pass ? "PASS" : "FAIL");
+  }
   std::filesystem::remove_all(dir);
   return pass ? 0 : 1;
 }
@@ -464,7 +548,7 @@ int main(int argc, char** argv) {
   bool worker = false;
   bool soak = false;
   bool json = false;
-  int cycles = 20;
+  SoakArgs soak_args;
   LoadArgs load;
   WorkerArgs w;
   double seconds = -1.0;
@@ -478,7 +562,14 @@ int main(int argc, char** argv) {
   app.add_option("--cells", load.cells, "Cells per box side (38: 59,319 nodes)");
   app.add_option("--rate", load.rate, "States per second per client");
   app.add_option("--seconds", seconds, "Duration (load 20, soak 180, worker 0 = until SIGTERM)");
-  app.add_option("--cycles", cycles, "Soak: register/unregister cycles");
+  app.add_option("--cycles", soak_args.cycles, "Soak: register/unregister cycles");
+  app.add_option("--stream-clients", soak_args.stream_clients,
+                 "Soak: clients streaming throughout (2; 0 for the quick check)");
+  app.add_option("--warmup-cycles", soak_args.warmup_cycles,
+                 "Soak: the first judged sample is this cycle's (5)");
+  soak_args.heap_limit_kb = kHeapLimitKb;
+  app.add_option("--heap-limit-kb", soak_args.heap_limit_kb,
+                 "Soak: live heap growth allowed per cycle after warm-up, KB");
   app.add_option("--go", w.go, "Worker: wait for this file after registering");
   app.add_flag("--json", json, "JSON output");
   CLI11_PARSE(app, argc, argv);
@@ -499,14 +590,24 @@ int main(int argc, char** argv) {
     if (!daemon_path.empty()) {
       domain = 100 + static_cast<std::uint32_t>(getpid()) % 100;
       const std::string config = "/tmp/tc-load-" + std::to_string(getpid()) + ".yaml";
-      std::ofstream(config) << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+      std::ofstream out(config);
+      out << "version: 1\nlog:\n  level: warn\n  timing_summary_period_s: 0\n";
+      if (soak) {
+        // The soak reads the daemon's live heap from its metrics endpoint.
+        soak_args.metrics_port = tc::bench::free_loopback_port();
+        out << "metrics:\n  listen: 127.0.0.1:" << soak_args.metrics_port << "\n";
+      }
+      out.close();
       if (!daemon.start(daemon_path, domain, config)) return 1;
       daemon_pid = daemon.pid;
     } else {
       std::fprintf(stderr, "--daemon is required (the tool samples the daemon's /proc)\n");
       return 2;
     }
-    if (soak) return run_soak(domain, daemon_pid, seconds > 0 ? seconds : 180.0, cycles, json);
+    if (soak) {
+      soak_args.seconds = seconds > 0 ? seconds : 180.0;
+      return run_soak(domain, daemon_pid, soak_args, json);
+    }
     load.seconds = seconds > 0 ? seconds : 20.0;
     return run_load(domain, daemon_pid, load, json);
   } catch (const std::exception& e) {
