@@ -1350,6 +1350,64 @@ TEST(Detect, DegenerateTetsDoNotBreakAnything) {
   expect_identical(c, brute_force(a, b));
 }
 
+// The pipeline's degraded mode (issue 48, item 6): tets left out of a body
+// (CollisionBody::set_left_out_tets) take part in no contact: no overlapping pair, no
+// node or edge of the other object in them. The overlaps of the other tets stay, and a
+// body whose list is emptied again gives the full contacts.
+TEST(Detect, LeftOutTetsTakePartInNothing) {
+  const Object a(test::structured_box(6, 6, 6, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(moved(test::structured_box(5, 5, 5, Vector3d(0, 0, 0), Vector3d(0.8, 0.8, 0.8)),
+                       Eigen::AngleAxisd(0.4, Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+                       Vector3d(0.6, 0.1, 0.15)));
+  const PairContacts full = run(a, b);
+  ASSERT_FALSE(full.nodes_a_in_b.empty());
+  ASSERT_FALSE(full.nodes_b_in_a.empty());
+  // Left out: the tets holding the first intruding nodes of each direction.
+  std::vector<Index> out_a, out_b;
+  for (std::size_t k = 0; k < 3 && k < full.nodes_b_in_a.size(); ++k)
+    out_a.push_back(full.nodes_b_in_a[k].tet);
+  for (std::size_t k = 0; k < 3 && k < full.nodes_a_in_b.size(); ++k)
+    out_b.push_back(full.nodes_a_in_b[k].tet);
+  for (auto* list : {&out_a, &out_b}) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
+  const auto in = [](const std::vector<Index>& list, Index t) {
+    return std::binary_search(list.begin(), list.end(), t);
+  };
+  for (const auto kind : {BroadPhaseKind::kBvh, BroadPhaseKind::kSap}) {
+    DetectOptions opt;
+    opt.broad_phase = kind;
+    CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
+    Detector detector(opt);
+    ba.set_positions(a.mesh.positions);
+    bb.set_positions(b.mesh.positions);
+    ba.set_left_out_tets(out_a);
+    bb.set_left_out_tets(out_b);
+    PairContacts got;
+    detector.detect(ba, bb, got);
+    expect_well_formed(got);
+    std::vector<TetPair> kept;
+    for (const TetPair& p : full.overlapping)
+      if (!in(out_a, p.tet_a) && !in(out_b, p.tet_b)) kept.push_back(p);
+    EXPECT_EQ(got.overlapping, kept);
+    for (const Index t : got.marked_a) EXPECT_FALSE(in(out_a, t)) << t;
+    for (const Index t : got.marked_b) EXPECT_FALSE(in(out_b, t)) << t;
+    for (const IntrudingNode& n : got.nodes_a_in_b) EXPECT_FALSE(in(out_b, n.tet)) << n.node;
+    for (const IntrudingNode& n : got.nodes_b_in_a) EXPECT_FALSE(in(out_a, n.tet)) << n.node;
+    for (const IntrudingEdge& e : got.edges_a_in_b) EXPECT_FALSE(in(out_b, e.tet)) << e.edge;
+    for (const IntrudingEdge& e : got.edges_b_in_a) EXPECT_FALSE(in(out_a, e.tet)) << e.edge;
+    EXPECT_FALSE(got.nodes_a_in_b.empty());
+    // Nothing left out any more: the full contacts, with the same detector and bodies.
+    ba.set_left_out_tets({});
+    bb.set_left_out_tets({});
+    ba.reuse_positions();
+    bb.reuse_positions();
+    detector.detect(ba, bb, got);
+    expect_identical(got, full);
+  }
+}
+
 TEST(CollisionBody, RejectsMismatchedInput) {
   const TetMesh m = test::cube_five_tets();
   const Topology t = build_topology(m.tets, m.num_nodes());

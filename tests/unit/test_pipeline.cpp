@@ -5,6 +5,7 @@
 #include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -245,6 +246,166 @@ TEST(Pipeline, LaterStatesAreCheckedAsStrictlyAsTheFirst) {
   EXPECT_NE(expected.find("inverted"), std::string::npos) << expected;
   EXPECT_EQ(bad.errors[0].error.message, "object 'a' frame 4: " + expected);
   EXPECT_TRUE(run(5, x).errors.empty());
+}
+
+// Issue 48, item 6: the degraded mode. The inverted and degenerate tets of `x`, sorted,
+// every one listed (the reference the pipeline's list is checked against).
+std::vector<Index> bad_tets(const Positions& x, const std::vector<Tet>& tets) {
+  ValidationOptions options;
+  options.max_listed = tets.size();
+  const ValidationReport r = validate_positions(x, tets, options);
+  std::vector<Index> out = r.inverted.first;
+  out.insert(out.end(), r.degenerate.first.begin(), r.degenerate.first.end());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+/// Node (i, j, k) of test::structured_box(n, n, n, ...).
+Index grid_node(int n, int i, int j, int k) {
+  return i + (n + 1) * (j + (n + 1) * k);
+}
+
+// A state with a few inverted tets far from the contact is accepted (the default limit:
+// 16 tets and 1 % of the object's), its objects get the forces a clean state gets, bit for
+// bit, and FrameOutput::degraded names the object and every tet left out. The same state
+// is rejected as before when the limit is 0. The next clean state is answered in full.
+TEST(PipelineDegraded, AFewInvertedTetsFarFromContactKeepTheForces) {
+  const TetMesh a = box_at(0.0, 8), b = box_at(0.9, 4);  // overlap: x in [0.9, 1]
+  Positions dented = a.positions;
+  // A node (at x = 0.25) pushed past its neighbour below: 6 tets inverted.
+  dented.col(grid_node(8, 2, 4, 4)) += Eigen::Vector3d(0.0, 0.0, -0.14);
+  const std::vector<Index> bad = bad_tets(dented, a.tets);
+  ASSERT_GE(bad.size(), 1u);
+  ASSERT_LE(bad.size(), 16u);
+  const std::vector<FrameObjectInput> clean = {state_of("a", a), state_of("b", b)};
+  std::vector<FrameObjectInput> degraded = clean;
+  degraded[0].positions = dented;
+
+  Pipeline reference;
+  ASSERT_TRUE(reference.set_topology("a", 0, a, {}).ok());
+  ASSERT_TRUE(reference.set_topology("b", 0, b, {}).ok());
+  const FrameOutput want = reference.run_frame(0, clean);
+  ASSERT_TRUE(want.errors.empty());
+  ASSERT_EQ(want.forces.size(), 2u);
+
+  Pipeline pipeline;
+  ASSERT_TRUE(pipeline.set_topology("a", 0, a, {}).ok());
+  ASSERT_TRUE(pipeline.set_topology("b", 0, b, {}).ok());
+  EXPECT_TRUE(pipeline.run_frame(0, clean).degraded.empty());
+  const FrameOutput got = pipeline.run_frame(1, degraded);
+  EXPECT_TRUE(got.errors.empty());
+  ASSERT_EQ(got.degraded.size(), 1u);
+  const DegradedState& d = got.degraded[0];
+  EXPECT_EQ(d.object, "a");
+  EXPECT_EQ(d.tets, bad);
+  EXPECT_EQ(d.inverted + d.degenerate, bad.size());
+  EXPECT_EQ(d.allowed, 16u);  // min(16, 1 % of 3072 tets)
+  expect_same_forces(got, want);
+  // Clean again: nothing left out, the same forces.
+  const FrameOutput after = pipeline.run_frame(2, clean);
+  EXPECT_TRUE(after.errors.empty());
+  EXPECT_TRUE(after.degraded.empty());
+  expect_same_forces(after, want);
+
+  // max_inverted_tets = 0: the state is rejected as before (a gets no forces, b's come
+  // from a's last state).
+  PipelineConfig strict_config;
+  strict_config.max_inverted_tets = 0;
+  Pipeline strict(strict_config);
+  ASSERT_TRUE(strict.set_topology("a", 0, a, {}).ok());
+  ASSERT_TRUE(strict.set_topology("b", 0, b, {}).ok());
+  ASSERT_TRUE(strict.run_frame(0, clean).errors.empty());
+  const FrameOutput rejected = strict.run_frame(1, degraded);
+  ASSERT_EQ(rejected.errors.size(), 1u);
+  EXPECT_EQ(rejected.errors[0].object, "a");
+  EXPECT_EQ(rejected.errors[0].error.code, ErrorCode::kInvalidMesh);
+  EXPECT_NE(rejected.errors[0].error.message.find("inverted"), std::string::npos);
+  EXPECT_TRUE(rejected.degraded.empty());
+}
+
+// Inverted tets inside the contact, in both objects: they take part in nothing (no
+// point contact has its node in one of them), every force is finite, the objects are
+// still pushed apart, and the forces are the same bits whatever the thread count.
+TEST(PipelineDegraded, InvertedTetsAtTheContactTakePartInNothing) {
+  const TetMesh a = box_at(0.0, 8), b = box_at(0.9, 8);
+  Positions xa = a.positions, xb = b.positions;
+  // A node of each pushed past its neighbour towards the other object, into the overlap.
+  xa.col(grid_node(8, 7, 4, 4)) += Eigen::Vector3d(0.14, 0.0, 0.0);   // x: 0.875 -> 1.015
+  xb.col(grid_node(8, 1, 4, 4)) += Eigen::Vector3d(-0.14, 0.0, 0.0);  // x: 1.025 -> 0.885
+  const std::vector<Index> bad_a = bad_tets(xa, a.tets), bad_b = bad_tets(xb, b.tets);
+  ASSERT_GE(bad_a.size(), 1u);
+  ASSERT_LE(bad_a.size(), 16u);
+  ASSERT_GE(bad_b.size(), 1u);
+  ASSERT_LE(bad_b.size(), 16u);
+  const std::vector<FrameObjectInput> states = {{"a", 0, xa, {}}, {"b", 0, xb, {}}};
+  std::vector<FrameOutput> outputs;
+  for (const int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(threads));
+    PipelineConfig config;
+    config.record_contacts = true;
+    config.compute_stiffness = true;
+    Pipeline pipeline(config);
+    ASSERT_TRUE(pipeline.set_topology("a", 0, a, {}).ok());
+    ASSERT_TRUE(pipeline.set_topology("b", 0, b, {}).ok());
+    outputs.push_back(pipeline.run_frame(0, states));
+  }
+  const FrameOutput& out = outputs[0];
+  EXPECT_TRUE(out.errors.empty());
+  ASSERT_EQ(out.degraded.size(), 2u);
+  EXPECT_EQ(out.degraded[0].tets, bad_a);
+  EXPECT_EQ(out.degraded[1].tets, bad_b);
+  ASSERT_EQ(out.forces.size(), 2u);
+  for (const ObjectForces& f : out.forces)
+    for (const Eigen::Vector3d& v : f.forces) EXPECT_TRUE(v.allFinite()) << f.object;
+  EXPECT_LT(total(out, "a").x(), 0.0);
+  EXPECT_GT(total(out, "b").x(), 0.0);
+  EXPECT_TRUE(std::isfinite(out.stats.max_depth));
+  ASSERT_FALSE(out.point_contacts.empty());
+  for (const FramePointContact& c : out.point_contacts) {
+    const std::vector<Index>& left_out = c.penetrated == "a" ? bad_a : bad_b;
+    EXPECT_FALSE(std::binary_search(left_out.begin(), left_out.end(), c.tet))
+        << c.object << " node " << c.node << " in " << c.penetrated << " tet " << c.tet;
+    EXPECT_TRUE(std::isfinite(c.depth));
+  }
+  for (std::size_t k = 1; k < outputs.size(); ++k) expect_same_forces(outputs[k], out);
+}
+
+// The limit: inverted and degenerate tets count together, against both the count and the
+// fraction; a rejection names at most 8 tets of a kind however many the check lists.
+TEST(PipelineDegraded, TheLimitIsACountAndAFraction) {
+  const TetMesh a = box_at(0.0, 8);
+  Positions dented = a.positions;
+  dented.col(grid_node(8, 2, 4, 4)) += Eigen::Vector3d(0.0, 0.0, -0.14);
+  const std::size_t bad = bad_tets(dented, a.tets).size();
+  ASSERT_GE(bad, 2u);
+  const auto errors = [&](std::size_t count, double fraction, const Positions& x) {
+    PipelineConfig config;
+    config.max_inverted_tets = count;
+    config.max_inverted_fraction = fraction;
+    Pipeline pipeline(config);
+    EXPECT_TRUE(pipeline.set_topology("a", 0, a, {}).ok());
+    return pipeline.run_frame(0, std::vector<FrameObjectInput>{{"a", 0, x, {}}}).errors;
+  };
+  const double m = static_cast<double>(a.tets.size());
+  EXPECT_TRUE(errors(bad, 1.0, dented).empty());
+  EXPECT_EQ(errors(bad - 1, 1.0, dented).size(), 1u);
+  EXPECT_TRUE(errors(1000, (static_cast<double>(bad) + 0.5) / m, dented).empty());
+  EXPECT_EQ(errors(1000, (static_cast<double>(bad) - 0.5) / m, dented).size(), 1u);
+  // A mirror inverts every tet: rejected with the message of the registration's check.
+  Positions mirror = a.positions;
+  mirror.row(0) *= -1.0;
+  const auto rejected = errors(5000, 1.0 / 3.0, mirror);
+  ASSERT_EQ(rejected.size(), 1u);
+  ValidationOptions frame_options;
+  frame_options.compute_min_quality = false;
+  EXPECT_EQ(rejected[0].error.message,
+            "object 'a' frame 0: " + validate_positions(mirror, a.tets, frame_options).summary());
+  PipelineConfig bad_config;
+  bad_config.max_inverted_fraction = 1.5;
+  EXPECT_THROW(Pipeline{bad_config}, std::invalid_argument);
+  bad_config.max_inverted_fraction = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(Pipeline{bad_config}, std::invalid_argument);
 }
 
 TEST(Pipeline, InvalidTopologyKeepsThePreviousVersion) {

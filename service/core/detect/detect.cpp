@@ -1089,6 +1089,17 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     if (full_tree)
       for (const Index t : subset_b_) box_slot_[t] = -1;
   }
+  if (!a.left_out_.empty() || !b.left_out_.empty()) {
+    // Tets left out of contact (set_left_out_tets()): no pair with them is tested, so they
+    // are never marked and never host an intruding node or edge. The kept pairs keep
+    // them: a tet left out this frame may take part in the next.
+    const auto out_of = [](const std::vector<Index>& list, Index t) {
+      return !list.empty() && std::binary_search(list.begin(), list.end(), t);
+    };
+    std::erase_if(candidates_, [&](const TetPair& p) {
+      return out_of(a.left_out_, p.tet_a) || out_of(b.left_out_, p.tet_b);
+    });
+  }
   st.candidates = candidates_.size();
   const auto broad_end = Clock::now();
   st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();

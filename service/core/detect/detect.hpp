@@ -133,6 +133,16 @@ class CollisionBody {
   /// listed tets that do not have them yet. Not thread-safe for one body.
   void ensure_bounds(std::span<const Index> tets, bool spheres);
 
+  /// Tets that take part in no contact until the next call (sorted, duplicates
+  /// allowed; empty: every tet takes part): Detector::detect() drops the broad-phase
+  /// candidates with one of them, so they overlap nothing, hold no node or edge of the
+  /// other object, and their nodes and edges are tested only where the object's other
+  /// tets overlap. The pipeline's degraded mode leaves a state's few inverted or
+  /// degenerate tets out this way (docs/DETECTION.md, "Inverted tets").
+  void set_left_out_tets(std::span<const Index> tets) {
+    left_out_.assign(tets.begin(), tets.end());
+  }
+  [[nodiscard]] std::span<const Index> left_out_tets() const { return left_out_; }
   /// Box of the finite node positions of this frame (empty before set_positions()).
   [[nodiscard]] const Aabb& box() const { return box_; }
   [[nodiscard]] Index num_nodes() const { return num_nodes_; }
@@ -221,6 +231,7 @@ class CollisionBody {
   std::vector<std::uint64_t> near_bits_;  ///< scratch bitmap of tets_near(), all 0 between calls
 
   const Positions* positions_ = nullptr;
+  std::vector<Index> left_out_;  ///< set_left_out_tets(), sorted
   Aabb box_;
   TetBounds bounds_;
   bool bounds_ready_ = false;

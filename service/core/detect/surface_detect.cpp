@@ -104,7 +104,8 @@ Groups group_pairs(std::vector<std::pair<Index, Index>>& pairs) {
 SurfaceContacts detect_surface_tets(const Positions& surface_positions,
                                     std::span<const Triangle> triangles, const SurfaceEdges& edges,
                                     const Positions& tet_positions, std::span<const Tet> tets,
-                                    const DetectOptions& options, SurfaceDetectStats* stats) {
+                                    const DetectOptions& options, SurfaceDetectStats* stats,
+                                    std::span<const Index> left_out_tets) {
   if (edges.triangle_edges.size() != triangles.size())
     throw std::invalid_argument("detect_surface_tets: edges were built from other triangles");
   SurfaceContacts out;
@@ -129,6 +130,9 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
   in_region(
       tets.size(), region,
       [&](std::size_t i) {
+        if (!left_out_tets.empty() &&
+            std::binary_search(left_out_tets.begin(), left_out_tets.end(), static_cast<Index>(i)))
+          return Aabb{};  // left out: in no candidate pair
         const TetCorners c = tet_corners(tet_positions, tets[i]);
         return finite(c) ? corner_box(c) : Aabb{};
       },

@@ -58,7 +58,8 @@ struct SurfaceDetectStats {
 /// methods give the same candidates; `grid` rounds triangles by spheres too),
 /// options.relative_tolerance (times the pair's, tet's, or tet-and-edge's largest box
 /// extent, as for tet pairs), options.intruding_nodes and options.intruding_edges.
-/// Triangles or tets with a non-finite corner take part in nothing.
+/// Triangles or tets with a non-finite corner take part in nothing, nor do the tets in
+/// `left_out_tets` (sorted; CollisionBody::set_left_out_tets()).
 ///
 /// Cost: one box test per triangle and per tet (the cull to the two objects' overlap
 /// box), then work and memory that follow the contact: the tables it reads (node ->
@@ -69,7 +70,8 @@ SurfaceContacts detect_surface_tets(const Positions& surface_positions,
                                     std::span<const Triangle> triangles, const SurfaceEdges& edges,
                                     const Positions& tet_positions, std::span<const Tet> tets,
                                     const DetectOptions& options = {},
-                                    SurfaceDetectStats* stats = nullptr);
+                                    SurfaceDetectStats* stats = nullptr,
+                                    std::span<const Index> left_out_tets = {});
 
 /// The contacts of a (surface, tet object) pair in the form the response reads
 /// (ResponseAccumulator::compute): the surface is A when surface_is_a, else B. Its nodes

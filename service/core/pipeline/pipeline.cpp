@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -32,13 +33,70 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+/// How many defects of each kind a rejection names (the validation's default).
+constexpr std::size_t kListedInMessage = ValidationOptions{}.max_listed;
+
 /// The per-frame state check: the same defects as at registration, without the smallest
-/// quality (nothing reads it per frame), so well-shaped tets skip tet_quality().
-const ValidationOptions kFrameValidation = [] {
+/// quality (nothing reads it per frame), so well-shaped tets skip tet_quality(). It lists
+/// up to max_inverted_tets defects of a kind, so a state accepted in the degraded mode
+/// has all its inverted and degenerate tets listed.
+ValidationOptions frame_validation(const PipelineConfig& config) {
   ValidationOptions o;
   o.compute_min_quality = false;
+  o.max_listed = std::max(o.max_listed, config.max_inverted_tets);
   return o;
-}();
+}
+
+/// The rejection of a state whose report is not clean, naming at most kListedInMessage
+/// defects of a kind, as the registration's check does.
+Status reject_state(ValidationReport report, const std::string& who) {
+  for (DefectList* list : {&report.nonfinite_node, &report.degenerate, &report.inverted})
+    if (list->first.size() > kListedInMessage) list->first.resize(kListedInMessage);
+  return require_valid(report, who);
+}
+
+/// Removes from an object's self-contacts every overlap, intruding node and edge with a
+/// tet in `out` (sorted: the tets a degraded state leaves out of contact), and makes the
+/// marked lists again from the overlaps left (for a part of one component with itself,
+/// both lists hold every tet of the part, as SelfCollider makes them).
+void drop_left_out(SelfContacts& contacts, std::span<const Index> out) {
+  const auto left_out = [&](Index t) { return std::binary_search(out.begin(), out.end(), t); };
+  const auto sorted = [](std::vector<Index>& v) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  };
+  std::vector<SelfContactPart> kept;
+  contacts.marked.clear();
+  for (SelfContactPart& part : contacts.parts) {
+    PairContacts& c = part.contacts;
+    std::erase_if(c.overlapping,
+                  [&](const TetPair& p) { return left_out(p.tet_a) || left_out(p.tet_b); });
+    if (c.overlapping.empty()) continue;
+    for (auto* nodes : {&c.nodes_a_in_b, &c.nodes_b_in_a})
+      std::erase_if(*nodes, [&](const IntrudingNode& n) { return left_out(n.tet); });
+    for (auto* edges : {&c.edges_a_in_b, &c.edges_b_in_a})
+      std::erase_if(*edges, [&](const IntrudingEdge& e) { return left_out(e.tet); });
+    c.marked_a.clear();
+    c.marked_b.clear();
+    for (const TetPair& p : c.overlapping) {
+      c.marked_a.push_back(p.tet_a);
+      c.marked_b.push_back(p.tet_b);
+    }
+    if (part.component_a == part.component_b) {
+      c.marked_a.insert(c.marked_a.end(), c.marked_b.begin(), c.marked_b.end());
+      sorted(c.marked_a);
+      c.marked_b = c.marked_a;
+    } else {
+      sorted(c.marked_a);
+      sorted(c.marked_b);
+    }
+    contacts.marked.insert(contacts.marked.end(), c.marked_a.begin(), c.marked_a.end());
+    contacts.marked.insert(contacts.marked.end(), c.marked_b.begin(), c.marked_b.end());
+    kept.push_back(std::move(part));
+  }
+  sorted(contacts.marked);
+  contacts.parts = std::move(kept);
+}
 
 }  // namespace
 
@@ -88,6 +146,9 @@ struct SceneObject {
   /// `positions` are the state the shape check accepted last (this frame): its bound
   /// goes to the body with them.
   bool state_checked = false;
+  /// The inverted and degenerate tets of `positions`, sorted (a state accepted in the
+  /// degraded mode, PipelineConfig::max_inverted_tets): left out of every contact.
+  std::vector<Index> left_out_tets;
   // Per-frame scratch.
   std::vector<Index> marked;
   bool involved = false;
@@ -132,10 +193,15 @@ struct Pipeline::Impl {
   ResponseAccumulator accumulator;
   std::vector<PairContacts> contacts;  // per touching pair, reused
   PairResponse pair_response;
+  ValidationOptions frame_checks;  // the per-frame shape check's (frame_validation())
 
   static Status check_params(const std::string& object, const ObjectParams& params);
 
   // The steps of one frame (run_frame), in the order they run.
+
+  /// The most inverted and degenerate tets a state of `obj` may have and still be
+  /// accepted (PipelineConfig::max_inverted_tets and max_inverted_fraction).
+  [[nodiscard]] std::size_t allowed_bad_tets(const SceneObject& obj) const;
 
   /// 1. States: checked object by object; a bad one is rejected, the rest run.
   /// Velocities hold for the frame they came with: an object without a state counts as
@@ -202,6 +268,11 @@ ResponseOptions pair_options(const ObjectParams& a, const ObjectParams& b) {
 
 Pipeline::Pipeline(PipelineConfig config) : impl_(std::make_unique<Impl>()) {
   impl_->config = std::move(config);
+  if (!(impl_->config.max_inverted_fraction >= 0.0 && impl_->config.max_inverted_fraction <= 1.0))
+    throw std::invalid_argument("max_inverted_fraction " +
+                                std::to_string(impl_->config.max_inverted_fraction) +
+                                " is not in [0, 1]");
+  impl_->frame_checks = frame_validation(impl_->config);
   DetectOptions options;
   if (!impl_->config.broad_phase.empty()) {
     const auto kind = parse_broad_phase(impl_->config.broad_phase);
@@ -252,7 +323,7 @@ Status Pipeline::set_topology(const std::string& object, std::uint32_t version, 
                                                     slot->topology, depth_options);
       });
   slot->shape_check = std::make_unique<ShapeCheck>(slot->check_order, slot->topology.node_tets,
-                                                   slot->mesh.num_nodes(), kFrameValidation);
+                                                   slot->mesh.num_nodes(), impl_->frame_checks);
   if (params.self_contact) {
     auto& self = slot->self.emplace();
     self.collider = std::make_unique<SelfCollider>(std::span<const Tet>(slot->mesh.tets),
@@ -344,6 +415,12 @@ FrameOutput Pipeline::run_frame(std::int64_t frame, std::span<const FrameObjectI
   return out;
 }
 
+std::size_t Pipeline::Impl::allowed_bad_tets(const SceneObject& obj) const {
+  const auto by_fraction = static_cast<std::size_t>(
+      std::floor(config.max_inverted_fraction * static_cast<double>(obj.mesh.tets.size())));
+  return std::min(config.max_inverted_tets, by_fraction);
+}
+
 void Pipeline::Impl::apply_states(std::int64_t frame, std::span<const FrameObjectInput> states,
                                   std::span<FrameObjectInput> take, FrameOutput& out) {
   for (auto& [name, obj] : objects) obj->velocities.resize(3, 0);
@@ -380,14 +457,31 @@ void Pipeline::Impl::apply_states(std::int64_t frame, std::span<const FrameObjec
       continue;
     }
     // The registration's checks on the new positions: NaN, and inverted or degenerate
-    // tets (degenerate triangles for a surface).
-    const Status shape =
-        obj.surface ? require_valid_surface(
-                          validate_surface(state.positions, obj.surface->mesh.triangles), who)
-                    : require_valid(obj.shape_check->check(state.positions), who);
-    if (!shape) {
-      out.errors.push_back({state.object, shape.error()});
-      continue;
+    // tets (degenerate triangles for a surface). A few inverted or degenerate tets are
+    // accepted, left out of contact (the degraded mode); more are rejected.
+    std::vector<Index> left_out;
+    if (obj.surface) {
+      const Status shape = require_valid_surface(
+          validate_surface(state.positions, obj.surface->mesh.triangles), who);
+      if (!shape) {
+        out.errors.push_back({state.object, shape.error()});
+        continue;
+      }
+    } else {
+      const ValidationReport report = obj.shape_check->check(state.positions);
+      const std::size_t bad = report.inverted.count + report.degenerate.count;
+      const std::size_t allowed = allowed_bad_tets(obj);
+      if (report.structurally_invalid() || bad > allowed) {
+        out.errors.push_back({state.object, reject_state(report, who).error()});
+        continue;
+      }
+      if (bad > 0) {  // (bad <= max_inverted_tets <= max_listed: every one is listed)
+        std::merge(report.inverted.first.begin(), report.inverted.first.end(),
+                   report.degenerate.first.begin(), report.degenerate.first.end(),
+                   std::back_inserter(left_out));
+        out.degraded.push_back(
+            {state.object, report.inverted.count, report.degenerate.count, allowed, left_out});
+      }
     }
     if (obj.params.is_static && obj.static_depth_ready && state.positions != obj.positions)
       obj.static_depth_ready = false;  // a "static" object moved: recompute once
@@ -400,6 +494,10 @@ void Pipeline::Impl::apply_states(std::int64_t frame, std::span<const FrameObjec
     }
     obj.has_state = true;
     obj.moved = true;
+    if (!obj.surface && (!left_out.empty() || !obj.left_out_tets.empty())) {
+      obj.left_out_tets = std::move(left_out);
+      obj.body->set_left_out_tets(obj.left_out_tets);
+    }
     if (obj.self) obj.self->stale = true;
     obj.state_box.reset();
     obj.state_checked = !obj.surface;
@@ -473,7 +571,7 @@ void Pipeline::Impl::detect_pairs(FrameOutput& out) {
       SurfaceDetectStats ss;
       contacts[p] = to_pair_contacts(
           detect_surface_tets(s.positions, s.surface->mesh.triangles, s.surface->edges, t.positions,
-                              t.mesh.tets, detect_options, &ss),
+                              t.mesh.tets, detect_options, &ss, t.left_out_tets),
           a.surface.has_value());
       ds.narrow_ms = ms_since(start);
       ds.candidates = ss.candidates;
@@ -512,6 +610,7 @@ void Pipeline::Impl::detect_self(FrameOutput& out) {
     if (self.stale) {
       SelfDetectStats st;
       self.collider->detect(obj->positions, detect_options.relative_tolerance, self.contacts, &st);
+      if (!obj->left_out_tets.empty()) drop_left_out(self.contacts, obj->left_out_tets);
       self.stale = false;
       out.stats.broad_ms += st.surface_ms;
       out.stats.narrow_ms += st.tets_ms;

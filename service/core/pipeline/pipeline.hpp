@@ -42,6 +42,15 @@ struct PipelineConfig {
   /// Where the lazy depth maps march (DepthSolverOptions::lazy_region): a region around
   /// the contact (default), or from the whole boundary as in the paper's 4.4.
   LazyRegion lazy_region = LazyRegion::kLocal;
+  /// The degraded mode for a few inverted tets (docs/PROTOCOL.md, "A few inverted
+  /// tets"): a tet object's state with inverted or degenerate (zero-volume) tets is
+  /// accepted when they number at most max_inverted_tets and at most
+  /// max_inverted_fraction of the object's tets (both must hold). Those tets are then
+  /// left out of contact while the object holds that state (FrameOutput::degraded); any
+  /// more is rejected as before. max_inverted_tets = 0 rejects every such state. The
+  /// Pipeline constructor throws std::invalid_argument for a fraction outside [0, 1].
+  std::size_t max_inverted_tets = 16;
+  double max_inverted_fraction = 0.01;
 };
 
 /// One object's state in a frame.
@@ -104,11 +113,24 @@ struct ObjectContacts {
   std::vector<Row> rows;
 };
 
+/// A state accepted in the degraded mode (PipelineConfig::max_inverted_tets): its inverted
+/// and degenerate tets take part in no contact while the object holds it.
+struct DegradedState {
+  std::string object;
+  std::size_t inverted = 0;    ///< inverted tets of the state
+  std::size_t degenerate = 0;  ///< degenerate (zero-volume) tets of the state
+  std::size_t allowed = 0;     ///< the most this object may have (limit and fraction)
+  std::vector<Index> tets;     ///< the tets left out (both kinds), sorted
+};
+
 struct FrameOutput {
   std::int64_t frame = 0;
   std::vector<ObjectForces> forces;  ///< one entry per object with a non-zero force, by name
   FrameStats stats;
   std::vector<ObjectError> errors;
+  /// States accepted with a few inverted or degenerate tets left out of contact, in the
+  /// order of the states (each object gets its forces; PipelineConfig::max_inverted_tets).
+  std::vector<DegradedState> degraded;
   /// Moving (not static) objects that got no valid state of their current topology
   /// version yet (since set_topology), by name: left out of the frame, no pair with them
   /// is tested. Rest positions are not a state.
@@ -180,8 +202,10 @@ class Pipeline {
   /// frame keep their last positions; a moving object that never got a valid state of
   /// its current topology version is left out (FrameOutput::left_out), a static one uses
   /// its rest positions. A state that names an unknown object, a stale
-  /// topology version, a wrong node count or non-finite or inverted positions is
-  /// rejected into FrameOutput::errors; the rest of the frame runs.
+  /// topology version, a wrong node count, non-finite positions or more inverted or
+  /// degenerate tets than PipelineConfig::max_inverted_tets allows is rejected into
+  /// FrameOutput::errors; the rest of the frame runs. A state with fewer is accepted with
+  /// those tets left out of contact (FrameOutput::degraded).
   FrameOutput run_frame(std::int64_t frame, std::span<const FrameObjectInput> states);
 
   /// run_frame(), taking each accepted state's positions and velocities instead of
