@@ -210,8 +210,17 @@ void parse_document(const Parser& p, const YAML::Node& root, DaemonConfig& c) {
                 [&](const YAML::Node& v, const std::string& kk) {
                   c.pipeline.compute_stiffness = p.boolean(v, kk);
                 }},
-               {"density_threshold", [&](const YAML::Node& v, const std::string& kk) {
+               {"density_threshold",
+                [&](const YAML::Node& v, const std::string& kk) {
                   c.pipeline.density_threshold = p.real(v, kk, 0.0, 1.0);
+                }},
+               {"max_inverted_tets",
+                [&](const YAML::Node& v, const std::string& kk) {
+                  c.pipeline.max_inverted_tets =
+                      static_cast<std::size_t>(p.integer(v, kk, 0, tetcollide_MAX_TETS));
+                }},
+               {"max_inverted_fraction", [&](const YAML::Node& v, const std::string& kk) {
+                  c.pipeline.max_inverted_fraction = p.real(v, kk, 0.0, 1.0);
                 }}});
   };
   const auto limits = [&](const YAML::Node& n, const std::string& k) {

@@ -60,6 +60,10 @@ std::span<const double> row_major(const std::vector<Eigen::Matrix3d>& blocks,
 static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double),
               "ObjectForces::forces must be contiguous xyz triples");
 
+/// An object's degraded states (a few inverted tets left out) are said at most this often,
+/// after the first of a run.
+constexpr std::chrono::seconds kDegradedWindow{1};
+
 /// Topologies at least this large return freed memory to the OS after their build.
 constexpr std::size_t kTrimAfterTets = 100'000;
 
@@ -166,6 +170,7 @@ void SceneRunner::run_topology(TopologyJob& job) {
     // A new version has no state yet: the pipeline leaves the object out of contact
     // until its first state of this version (ContactForces.left_out).
     state_frame_.erase(job.object);
+    degraded_.erase(job.object);
     msg.kind = StatusKind::kRegistered;
     msg.code = tetcollide_STATUS_OK;
     msg.message = "registered topology version " + std::to_string(job.version) + ": " +
@@ -210,6 +215,7 @@ void SceneRunner::run_remove(const RemoveJob& job) {
   msg.message = "object removed";
   active_.erase(it);
   state_frame_.erase(job.object);
+  degraded_.erase(job.object);
   if (metrics_) metrics_->set_objects(active_.size());
   if (const std::size_t leak = test_leak_bytes_per_removal(); leak > 0) keep_for_test(leak);
   spdlog::info("{}/{}: removed", scene_, job.object);
@@ -281,6 +287,7 @@ void SceneRunner::run_frame(FrameJob& job) {
     spdlog::warn("{}/{}: frame {} rejected: {}", scene_, err.object, job.frame, err.error.message);
     outbox_.publish_status(msg);
   }
+  report_degraded(job, output);
   if (failed) {
     // Every object is answered with the internal error so no client waits in vain.
     for (const auto& [name, version] : active_)
@@ -406,6 +413,56 @@ void SceneRunner::publish_answers(const FrameJob& job, const FrameOutput& output
                                      [&](const RejectedState& r) { return r.object == e.object; });
     if (already) continue;
     answer_unheld(e.object, status_code(e.error.code));
+  }
+}
+
+void SceneRunner::report_degraded(const FrameJob& job, const FrameOutput& output) {
+  const auto now = Clock::now();
+  for (const DegradedState& d : output.degraded) {
+    auto [it, first] = degraded_.try_emplace(d.object);
+    DegradedRun& run = it->second;
+    ++run.states;
+    if (!first && now - run.said < kDegradedWindow) {
+      ++run.unsaid;
+      continue;
+    }
+    std::string tets;
+    for (std::size_t i = 0; i < d.tets.size() && i < 8; ++i)
+      tets += (i ? ", " : "") + std::to_string(d.tets[i]);
+    if (d.tets.size() > 8) tets += ", ...";
+    StatusMessage msg;
+    msg.kind = StatusKind::kError;  // a notice about an input; code 0: nothing rejected
+    msg.code = tetcollide_STATUS_OK;
+    msg.scene = scene_;
+    msg.object = d.object;
+    const auto active = active_.find(d.object);
+    msg.topology_version = active == active_.end() ? 0 : active->second;
+    msg.frame = job.frame;
+    msg.message = "state accepted with " + std::to_string(d.inverted) + " inverted and " +
+                  std::to_string(d.degenerate) + " degenerate tets (" + tets +
+                  ") left out of contact (at most " + std::to_string(d.allowed) +
+                  " allowed: pipeline.max_inverted_tets, max_inverted_fraction)";
+    if (run.unsaid > 0)
+      msg.message +=
+          "; " + std::to_string(run.unsaid) + " more degraded states since the last notice";
+    spdlog::warn("{}/{}: frame {}: {}", scene_, d.object, job.frame, msg.message);
+    outbox_.publish_status(msg);
+    run.said = now;
+    run.unsaid = 0;
+  }
+  if (degraded_.empty()) return;
+  // A clean state ends an object's run: its tets all take part again.
+  for (const FrameObjectInput& state : job.states) {
+    const auto it = degraded_.find(state.object);
+    if (it == degraded_.end()) continue;
+    const auto named = [&](const auto& list) {
+      return std::any_of(list.begin(), list.end(),
+                         [&](const auto& e) { return e.object == state.object; });
+    };
+    if (named(output.degraded) || named(output.errors)) continue;
+    spdlog::info("{}/{}: frame {}: a clean state again after {} degraded states", scene_,
+                 state.object, job.frame, it->second.states);
+    degraded_.erase(it);
   }
 }
 

@@ -94,6 +94,11 @@ class SceneRunner {
   void run_frame(FrameJob& job);
   void publish_answers(const FrameJob& job, const FrameOutput& output, std::uint64_t answer_id);
   void report_timing(double compute_ms, double latency_ms);
+  /// The degraded states of a frame (a few inverted tets left out of contact,
+  /// FrameOutput::degraded) on the status topic and in the log: the first of a run of an
+  /// object's degraded states always, then at most once per kDegradedWindow with the
+  /// count since; the run ends (said in the log) with the object's next clean state.
+  void report_degraded(const FrameJob& job, const FrameOutput& output);
 
   std::string scene_;
   Pipeline pipeline_;
@@ -110,6 +115,14 @@ class SceneRunner {
   std::map<std::string, FailedBuild, std::less<>> failed_;
   /// object -> frame of the newest state the pipeline used (absent: rest positions)
   std::map<std::string, std::int64_t, std::less<>> state_frame_;
+  /// Objects whose last accepted state was degraded: when that was last said, the
+  /// degraded states since (not said), and the run's length.
+  struct DegradedRun {
+    Clock::time_point said{};
+    std::uint64_t unsaid = 0;
+    std::uint64_t states = 0;
+  };
+  std::map<std::string, DegradedRun, std::less<>> degraded_;
   std::vector<double> stiffness_rows_;  ///< reused per object
   std::vector<double> damping_rows_;    ///< reused per object
   std::shared_ptr<SceneMetrics> metrics_;

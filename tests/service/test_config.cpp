@@ -39,6 +39,8 @@ void expect_same(const DaemonConfig& a, const DaemonConfig& b) {
   EXPECT_EQ(a.pipeline.broad_phase, b.pipeline.broad_phase);
   EXPECT_EQ(a.pipeline.compute_stiffness, b.pipeline.compute_stiffness);
   EXPECT_EQ(a.pipeline.density_threshold, b.pipeline.density_threshold);
+  EXPECT_EQ(a.pipeline.max_inverted_tets, b.pipeline.max_inverted_tets);
+  EXPECT_EQ(a.pipeline.max_inverted_fraction, b.pipeline.max_inverted_fraction);
   EXPECT_EQ(a.limits.max_nodes, b.limits.max_nodes);
   EXPECT_EQ(a.limits.max_tets, b.limits.max_tets);
   EXPECT_EQ(a.limits.max_objects_per_scene, b.limits.max_objects_per_scene);
@@ -82,6 +84,8 @@ pipeline:
   broad_phase: sap
   compute_stiffness: true
   density_threshold: 0.05
+  max_inverted_tets: 0
+  max_inverted_fraction: 0.5
 limits:
   max_nodes: 5000
   max_tets: 20000
@@ -115,6 +119,8 @@ metrics:
   EXPECT_EQ(c.pipeline.broad_phase, "sap");
   EXPECT_TRUE(c.pipeline.compute_stiffness);
   EXPECT_DOUBLE_EQ(c.pipeline.density_threshold, 0.05);
+  EXPECT_EQ(c.pipeline.max_inverted_tets, 0u);
+  EXPECT_DOUBLE_EQ(c.pipeline.max_inverted_fraction, 0.5);
   EXPECT_EQ(c.limits.max_nodes, 5000);
   EXPECT_EQ(c.limits.max_tets, 20000);
   EXPECT_EQ(c.limits.max_objects_per_scene, 8);
@@ -177,6 +183,10 @@ INSTANTIATE_TEST_SUITE_P(
                 "\"\", \"grid\", \"hash\", \"sap\", \"bvh\""},
         BadCase{"bool", "version: 1\npipeline:\n  compute_stiffness: maybe\n", ErrorCode::kParse,
                 "test.yaml:3:22", "true or false"},
+        BadCase{"inverted_fraction", "version: 1\npipeline:\n  max_inverted_fraction: 2\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:26", "pipeline.max_inverted_fraction"},
+        BadCase{"inverted_tets", "version: 1\npipeline:\n  max_inverted_tets: -1\n",
+                ErrorCode::kInvalidArgument, "test.yaml:3:22", "pipeline.max_inverted_tets"},
         BadCase{"level", "version: 1\nlog:\n  level: loud\n", ErrorCode::kInvalidArgument,
                 "test.yaml:3:10", "log.level"},
         BadCase{"limit_over_idl", "version: 1\nlimits:\n  max_nodes: 2000000\n",

@@ -287,6 +287,60 @@ TEST_F(SceneRunnerTest, PipelineRejectionsAreAnsweredAndReported) {
   EXPECT_TRUE(reported);
 }
 
+// A state with a few inverted tets (issue 48, item 6) is answered with its forces and
+// status ok, and said on the status topic: KIND_ERROR with code 0 naming the object, the
+// frame and the count. The first degraded state after a clean one is always said.
+TEST(SceneRunner, AFewInvertedTetsAreAnsweredAndSaid) {
+  test::OutboxRecorder outbox;
+  PipelineConfig config;
+  config.max_inverted_fraction = 1.0;  // box_at's 162 tets: the limit is the count, 16
+  SceneRunner runner("s", config, outbox, {}, 0.0);
+  const TetMesh a = box_at(0.0), b = box_at(0.8);
+  for (const auto& [name, mesh] : {std::pair{"a", a}, std::pair{"b", b}}) {
+    SceneJob job = TopologyJob{name, 1, mesh, ObjectParams{}, Clock::now()};
+    runner.run(job);
+  }
+  Positions dented = a.positions;
+  dented(2, 21) -= 0.4;  // node (1, 1, 1) past its neighbour below: 6 inverted tets
+  const auto run_frame = [&](std::int64_t f, const Positions& xa) {
+    FrameJob j;
+    j.frame = f;
+    j.states = {FrameObjectInput{"a", 1, xa, {}}, FrameObjectInput{"b", 1, b.positions, {}}};
+    j.state_frames.assign(j.states.size(), f);
+    j.first_received = j.dispatched = Clock::now();
+    j.complete = true;
+    SceneJob job = std::move(j);
+    runner.run(job);
+  };
+  const auto notices = [&](std::int64_t f) {
+    std::vector<StatusMessage> out;
+    for (const StatusMessage& s : outbox.status)
+      if (s.frame == f) out.push_back(s);
+    return out;
+  };
+  run_frame(1, dented);
+  const auto answers = outbox.forces_of("s", 1);
+  ASSERT_EQ(answers.size(), 2u);
+  for (const auto& answer : answers) {
+    EXPECT_EQ(answer.status, tetcollide_STATUS_OK) << answer.object;
+    EXPECT_FALSE(answer.nodes.empty()) << answer.object;
+  }
+  const auto said = notices(1);
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_EQ(said[0].kind, StatusKind::kError);
+  EXPECT_EQ(said[0].code, tetcollide_STATUS_OK);
+  EXPECT_EQ(said[0].object, "a");
+  EXPECT_EQ(said[0].topology_version, 1u);
+  EXPECT_NE(said[0].message.find("state accepted with 6 inverted and 0 degenerate tets"),
+            std::string::npos)
+      << said[0].message;
+  run_frame(2, a.positions);  // clean: nothing said
+  EXPECT_TRUE(notices(2).empty());
+  run_frame(3, dented);  // a new run: said again
+  EXPECT_EQ(notices(3).size(), 1u);
+  EXPECT_EQ(outbox.stats.back().rejected, 0u);
+}
+
 TEST_F(SceneRunnerTest, CutAndRemove) {
   add("a", 1, box_at(0.0));
   add("a", 2,
