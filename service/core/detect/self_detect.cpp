@@ -276,9 +276,13 @@ void SelfCollider::build_surface_tree(const Positions& rest) {
   for (Index f = 0; f < k; ++f) items_[static_cast<std::size_t>(f)] = f;
   nodes_.clear();
   if (k == 0) return;
-  std::vector<Vec3> centre(faces.size());
-  for (std::size_t f = 0; f < faces.size(); ++f)
-    centre[f] = (rest.col(faces[f][0]) + rest.col(faces[f][1]) + rest.col(faces[f][2])) / 3.0;
+  std::vector<Vec3> centre(faces.size()), normal(faces.size());
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    const Vec3 a = rest.col(faces[f][0]), b = rest.col(faces[f][1]), c = rest.col(faces[f][2]);
+    centre[f] = (a + b + c) / 3.0;
+    const Vec3 n = (b - a).cross(c - a);
+    normal[f] = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero();
+  }
   // Recursive median split on the longest axis of the centres' box, pre-order.
   struct Todo {
     Index begin, end, parent;
@@ -290,17 +294,34 @@ void SelfCollider::build_surface_tree(const Positions& rest) {
     nodes_.back().begin = begin;
     nodes_.back().end = end;
     if (end - begin <= kLeafFaces) return id;
-    Aabb box;
-    for (Index i = begin; i < end; ++i) box.extend(centre[static_cast<std::size_t>(items_[i])]);
-    Eigen::Index axis = 0;
+    // Faces facing apart (the two sides of a thin sheet, opposite faces of a box) are split
+    // by their normals first: each side is then a patch the cones cull, and two sides a
+    // box gap apart. Else the median of the centres along the box's longest axis.
+    Aabb box, normals;
+    for (Index i = begin; i < end; ++i) {
+      box.extend(centre[static_cast<std::size_t>(items_[i])]);
+      normals.extend(normal[static_cast<std::size_t>(items_[i])]);
+    }
+    Eigen::Index axis = 0, turn = 0;
     (box.hi - box.lo).maxCoeff(&axis);
-    const Index mid = begin + (end - begin) / 2;
-    std::nth_element(items_.begin() + begin, items_.begin() + mid, items_.begin() + end,
-                     [&](Index u, Index v) {
-                       const double cu = centre[static_cast<std::size_t>(u)][axis];
-                       const double cv = centre[static_cast<std::size_t>(v)][axis];
-                       return cu < cv || (cu == cv && u < v);
-                     });
+    Index mid = begin;
+    if ((normals.hi - normals.lo).maxCoeff(&turn) > 1.0) {  // at the middle of the range:
+      const double half = 0.5 * (normals.lo[turn] + normals.hi[turn]);  // groups, not a median
+      mid = static_cast<Index>(
+          std::stable_partition(
+              items_.begin() + begin, items_.begin() + end,
+              [&](Index f) { return normal[static_cast<std::size_t>(f)][turn] < half; }) -
+          items_.begin());
+    }
+    if (mid == begin || mid == end) {
+      mid = begin + (end - begin) / 2;
+      std::nth_element(items_.begin() + begin, items_.begin() + mid, items_.begin() + end,
+                       [&](Index u, Index v) {
+                         const double cu = centre[static_cast<std::size_t>(u)][axis];
+                         const double cv = centre[static_cast<std::size_t>(v)][axis];
+                         return cu < cv || (cu == cv && u < v);
+                       });
+    }
     self(self, begin, mid);
     const Index right = self(self, mid, end);
     nodes_[static_cast<std::size_t>(id)].right = right;
@@ -434,15 +455,18 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
     if (share_node(faces[f], faces[g])) return;
     const std::array<Vec3, 3> s{x.col(faces[f][0]), x.col(faces[f][1]), x.col(faces[f][2])};
     const std::array<Vec3, 3> t{x.col(faces[g][0]), x.col(faces[g][1]), x.col(faces[g][2])};
+    // Once a crossing is found there is no certificate to measure.
+    const bool measure = crossing_.empty();
     if (!face_boxes_[f].overlaps(face_boxes_[g])) {  // boxes that nearly touch: the triangles'
       const double gap = box_gap(face_boxes_[f], face_boxes_[g]);  // own gap, if larger
-      cert = std::min(cert, 0.5 * (gap >= near_gap_ ? gap : std::max(gap, separation(s, t))));
+      if (measure)
+        cert = std::min(cert, 0.5 * (gap >= near_gap_ ? gap : std::max(gap, separation(s, t))));
       return;
     }
     ++st.surface_pairs;
     if (triangles_meet(s, t, rel))
       crossing_.push_back({std::min(fi, gi), std::max(fi, gi)});
-    else
+    else if (measure)
       cert = std::min(cert, 0.5 * separation(s, t));
   };
   std::vector<std::pair<Index, Index>> stack;
