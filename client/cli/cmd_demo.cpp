@@ -85,6 +85,7 @@ client::ObjectParams to_params(const sim::ObjectSpec& o, const sim::SceneSpec& s
   p.stiffness = o.contact.stiffness;
   p.friction = o.contact.friction;
   p.friction_velocity = o.contact.friction_velocity;
+  p.self_contact = o.contact.self_contact;
   p.blocks = !o.is_static && (o.shell.has_value() || scene.integrator == "implicit");
   p.damping = o.contact.damping;
   p.max_force = o.contact.max_force;
@@ -342,6 +343,10 @@ nlohmann::json summary_json(const RunReport& r) {
       {"max_penetration_m", books.max_penetration},
       {"max_penetration_frame", books.max_penetration_frame},
       {"final_penetration_m", books.last_penetration},
+      {"self_penetration_m",
+       {{"max", books.max_self_penetration},
+        {"max_frame", books.max_self_penetration_frame},
+        {"final", books.last_self_penetration}}},
       {"service_max_depth_m", t.service_max_depth},
       {"max_contacts", t.max_contacts},
       {"peak_contact_force_n", books.peak_contact_force},
@@ -416,6 +421,11 @@ void print_summary(const RunReport& r, const std::filesystem::path& out) {
       "   max penetration (local, exact depth): %.3f mm at frame %lld; %.3f mm at the end\n",
       books.max_penetration * 1e3, static_cast<long long>(books.max_penetration_frame),
       books.last_penetration * 1e3);
+  if (books.max_self_penetration_frame >= 0)
+    std::printf(
+        "   max self-penetration (exact depth):   %.3f mm at frame %lld; %.3f mm at the end\n",
+        books.max_self_penetration * 1e3, static_cast<long long>(books.max_self_penetration_frame),
+        books.last_self_penetration * 1e3);
   std::printf("   max depth (service FrameStats):       %.3f mm, max contacts %llu\n",
               t.service_max_depth * 1e3, static_cast<unsigned long long>(t.max_contacts));
   std::printf(
@@ -686,7 +696,8 @@ int run_demo(const DemoArgs& args) {
     return report_error(st.error());
   const StageTimes t = stage_times(stats, round_trip, done);
   if (auto st = write_stage_times(out, scene.name, t); !st) return report_error(st.error());
-  std::vector<std::string> failures = sim::run_failures(books, scene.max_energy_rise);
+  std::vector<std::string> failures =
+      sim::run_failures(books, scene.max_energy_rise, scene.max_self_penetration);
   std::optional<sim::FrictionCheckResult> check;
   if (scene.check && books.com.count(scene.check->object) != 0) {
     check =

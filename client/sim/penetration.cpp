@@ -3,9 +3,12 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <unordered_map>
 
+#include "core/depth/boundary_bvh.hpp"
 #include "core/depth/depth_solver.hpp"
+#include "core/depth/self_depth.hpp"
 
 namespace tc::sim {
 namespace {
@@ -73,7 +76,59 @@ void PenetrationProbe::set_object(std::size_t i, const std::vector<Tet>& tets, I
   if (objects_.size() <= i) objects_.resize(i + 1);
   objects_[i].tets = tets;
   objects_[i].topology = build_topology(tets, n);
+  const Topology& topo = objects_[i].topology;
+  objects_[i].node_component.assign(static_cast<std::size_t>(n), -1);
+  for (Index v = 0; v < n; ++v)
+    if (!topo.node_tets.row(v).empty())
+      objects_[i].node_component[static_cast<std::size_t>(v)] =
+          topo.tet_component[static_cast<std::size_t>(topo.node_tets.row(v)[0])];
   objects_[i].ready = true;
+}
+
+namespace {
+
+/// Barycentric coordinates of p in tet t (l0, l1, l2, l3); false for a flat tet.
+bool barycentric_in(const Eigen::Matrix3Xd& x, const Tet& t, const Eigen::Vector3d& p,
+                    Eigen::Vector4d& out) {
+  Eigen::Matrix3d m;
+  for (int c = 0; c < 3; ++c) m.col(c) = x.col(t[static_cast<std::size_t>(c + 1)]) - x.col(t[0]);
+  if (!(std::abs(m.determinant()) > 0.0)) return false;
+  const Eigen::Vector3d l = m.partialPivLu().solve(p - x.col(t[0]));
+  out << 1.0 - l.sum(), l;
+  return true;
+}
+
+}  // namespace
+
+double PenetrationProbe::self_depth(std::size_t i, const Eigen::Matrix3Xd& x) const {
+  if (i >= objects_.size() || !objects_[i].ready || objects_[i].tets.empty()) return 0.0;
+  const Object& o = objects_[i];
+  if (!x.allFinite()) return 0.0;
+  Box bounds;
+  for (Eigen::Index n = 0; n < x.cols(); ++n) bounds.grow(x.col(n));
+  const TetGrid grid(x, o.tets, bounds);
+  std::optional<BoundaryBvh<3>> faces;  // built at the first node inside
+  double deepest = 0.0;
+  for (Index v = 0; v < static_cast<Index>(x.cols()); ++v) {
+    if (o.node_component[static_cast<std::size_t>(v)] < 0) continue;
+    const Eigen::Vector3d p = x.col(v);
+    const auto* cands = grid.at(p);
+    if (cands == nullptr) continue;
+    for (const Index t : *cands) {
+      const Tet& tet = o.tets[static_cast<std::size_t>(t)];
+      if (std::find(tet.begin(), tet.end(), v) != tet.end()) continue;
+      Eigen::Vector4d l;
+      constexpr double kTol = -1e-12;
+      if (!barycentric_in(x, tet, p, l) || !(l.minCoeff() >= kTol)) continue;
+      if (!faces) {
+        faces.emplace();
+        faces->build(o.topology.boundary_faces, x);
+      }
+      const double d = exact_self_depth(*faces, o.topology, o.node_component, x, v, t);
+      if (std::isfinite(d)) deepest = std::max(deepest, d);
+    }
+  }
+  return deepest;
 }
 
 std::vector<std::vector<double>> PenetrationProbe::measure(

@@ -23,10 +23,17 @@ class PenetrationProbe {
   /// object (the largest), 0 outside. `positions[i]` is object i's 3 x n positions.
   std::vector<std::vector<double>> measure(std::span<const Eigen::Matrix3Xd* const> positions);
 
+  /// Object i's self-penetration at positions x (3 x n): the deepest of its nodes inside a
+  /// tet of the same object that does not contain it, at its exact distance to that
+  /// part's boundary (exact_self_depth(): the faces of the tet's component outside the
+  /// node's own neighbourhood), metres; 0 when no node is inside such a tet.
+  double self_depth(std::size_t i, const Eigen::Matrix3Xd& x) const;
+
  private:
   struct Object {
     std::vector<Tet> tets;
     Topology topology;
+    std::vector<Index> node_component;  ///< component of each node's first tet (-1: none)
     bool ready = false;
   };
   std::vector<Object> objects_;

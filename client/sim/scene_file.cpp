@@ -143,8 +143,13 @@ class Parser {
     if (const YAML::Node c = n["contact"]; c.IsDefined()) {
       check_keys(c,
                  {"stiffness", "damping", "max_force", "depth", "response", "friction",
-                  "friction_velocity"},
+                  "friction_velocity", "self_contact"},
                  "contact");
+      o.contact.self_contact = get<bool>(c, "self_contact", false);
+      if (o.contact.self_contact && o.shell)
+        fail(c["self_contact"],
+             "'self_contact' needs a tet object: a shell is a surface object, which has no "
+             "depth map to push its own nodes out of");
       o.contact.friction = number(c, "friction", o.contact.friction, 0.0, 1e3);
       o.contact.friction_velocity =
           number(c, "friction_velocity", o.contact.friction_velocity, 0.0, 1e3);
@@ -164,9 +169,26 @@ class Parser {
   SceneSpec scene(const YAML::Node& root) const {
     if (!root.IsMap()) fail(root, "a scene file is a mapping (version, name, objects, ...)");
     check_keys(root,
-               {"version", "name", "description", "dt", "integrator", "substeps",
-                "newton_iterations", "linear_solver", "frames", "gravity", "output_every",
-                "render_frames", "image", "camera", "objects", "rain", "check", "max_energy_rise"},
+               {"version",
+                "name",
+                "description",
+                "dt",
+                "integrator",
+                "substeps",
+                "newton_iterations",
+                "linear_solver",
+                "frames",
+                "gravity",
+                "output_every",
+                "render_frames",
+                "image",
+                "camera",
+                "objects",
+                "rain",
+                "check",
+                "max_energy_rise",
+                "self_penetration_probe",
+                "max_self_penetration"},
                "the scene");
     if (get<int>(root, "version", 0) != 1) fail(root["version"], "'version: 1' is required");
     SceneSpec s;
@@ -274,6 +296,8 @@ class Parser {
     for (const auto& o : s.objects)
       if (!names.insert(o.name).second) fail(root, "object name '" + o.name + "' is repeated");
     s.max_energy_rise = number(root, "max_energy_rise", s.max_energy_rise, 0.0, 1e3);
+    s.self_penetration_probe = get<bool>(root, "self_penetration_probe", false);
+    s.max_self_penetration = number(root, "max_self_penetration", 0.0, 0.0, 1e3);
     if (const YAML::Node c = root["check"]; c.IsDefined()) {
       check_keys(c, {"kind", "object", "support", "from_s", "window_s", "max_drift_m", "tolerance"},
                  "check");

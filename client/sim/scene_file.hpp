@@ -26,6 +26,7 @@ struct ContactSpec {
   std::string response = "auto";   ///< point | segment | auto
   double friction = 0.0;           ///< Coulomb coefficient mu (a pair: sqrt(mu_a mu_b))
   double friction_velocity = 0.0;  ///< m/s; 0 = the service's default (1e-3)
+  bool self_contact = false;       ///< contact of the object with itself (tet objects)
 };
 
 struct ObjectSpec {
@@ -111,6 +112,11 @@ struct SceneSpec {
   /// The run fails when the mechanical energy rises more than this fraction above its
   /// initial value.
   double max_energy_rise = 0.05;
+  /// Measure every moving tet object's self-penetration (summary.json
+  /// self_penetration_m), not only those with contact.self_contact.
+  bool self_penetration_probe = false;
+  /// The run fails when the deepest self-penetration exceeds this, m (0: no limit).
+  double max_self_penetration = 0.0;
 };
 
 /// Parses a scene from YAML text. `where` names the source in errors; relative mesh

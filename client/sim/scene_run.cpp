@@ -37,7 +37,8 @@ Eigen::Vector3d weighted_mean(const Eigen::VectorXd& mass, const Eigen::Matrix3X
 
 }  // namespace
 
-std::vector<std::string> run_failures(const RunBooks& books, double max_rise) {
+std::vector<std::string> run_failures(const RunBooks& books, double max_rise,
+                                      double max_self_penetration) {
   std::vector<std::string> failures;
   if (books.rejected > 0)
     failures.push_back("the service rejected " + std::to_string(books.rejected) +
@@ -54,6 +55,15 @@ std::vector<std::string> run_failures(const RunBooks& books, double max_rise) {
                   "the mechanical energy rose %.1f %% above its initial value (%.4g J -> max "
                   "%.4g J): the integration is unstable",
                   100.0 * rise, books.energy_initial, books.energy_max);
+    failures.emplace_back(msg);
+  }
+  if (max_self_penetration > 0.0 && books.max_self_penetration > max_self_penetration) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg,
+                  "an object went %.3f mm into itself at frame %lld (the scene allows %.3f mm)",
+                  1e3 * books.max_self_penetration,
+                  static_cast<long long>(books.max_self_penetration_frame),
+                  1e3 * max_self_penetration);
     failures.emplace_back(msg);
   }
   return failures;
@@ -188,6 +198,17 @@ Status SceneRun::exchange(ContactService& service, std::int64_t frame, Probe pro
     if (deepest > books_.max_penetration) {
       books_.max_penetration = deepest;
       books_.max_penetration_frame = frame;
+    }
+    double self = 0.0;
+    for (std::size_t i = 0; i < objects_.size(); ++i) {
+      const SimObject& o = objects_[i];
+      if (o.body && (o.spec.contact.self_contact || scene_.self_penetration_probe))
+        self = std::max(self, probe_.self_depth(i, o.positions()));
+    }
+    books_.last_self_penetration = self;
+    if (self > books_.max_self_penetration) {
+      books_.max_self_penetration = self;
+      books_.max_self_penetration_frame = frame;
     }
   }
   return {};

@@ -111,6 +111,12 @@ struct RunBooks {
   double max_penetration = 0.0;
   std::int64_t max_penetration_frame = -1;
   double last_penetration = 0.0;  ///< deepest node at the last probed frame
+  /// Self-penetration (PenetrationProbe::self_depth) of the objects that ask for
+  /// self-contact, or of every moving tet object with SceneSpec::self_penetration_probe:
+  /// the deepest over the probed frames, where, and at the last probed frame, m.
+  double max_self_penetration = 0.0;
+  std::int64_t max_self_penetration_frame = -1;
+  double last_self_penetration = 0.0;
   std::int64_t last_probe_frame = -1;
   std::size_t contacts = 0;  ///< contact nodes of the last frame
   /// Per moving object: its mass-weighted centre (m) and velocity (m/s) after each step,
@@ -133,9 +139,11 @@ struct RunBooks {
 double energy_rise(const RunBooks& books);
 
 /// Why a run fails its physics checks (empty: it passes): a state the service rejected, a
-/// NaN/Inf state, an inverted tet, or mechanical energy more than `max_rise` (relative)
-/// above its initial value. `tetcollide demo` exits 1 for any of them.
-std::vector<std::string> run_failures(const RunBooks& books, double max_rise = 0.05);
+/// NaN/Inf state, an inverted tet, mechanical energy more than `max_rise` (relative)
+/// above its initial value, or a self-penetration deeper than `max_self_penetration` (m;
+/// 0: no limit). `tetcollide demo` exits 1 for any of them.
+std::vector<std::string> run_failures(const RunBooks& books, double max_rise = 0.05,
+                                      double max_self_penetration = 0.0);
 
 class SceneRun {
  public:
