@@ -322,3 +322,29 @@ def test_friction_blocks_and_contacts_on_request(client, ball, box):
     corners = box[0][box[1][c.tet[mine]]]  # (m, 4, 3)
     inside = np.einsum("mk,mkj->mj", c.barycentric[mine], corners)
     assert np.allclose(point, inside, atol=1e-9)
+
+
+def test_self_contact_of_one_object_made_of_two_balls(client, ball):
+    """Self-contact from Python (issue 45): two balls overlapping by 2 cm registered as ONE
+    object with self_contact=True are pushed apart along the line between their centres,
+    the forces sum to zero, and the contact rows name the object itself."""
+    nodes, tets = ball
+    n = len(nodes)
+    shift = 2 * 0.2 - 0.02  # radius 0.2: centres 38 cm apart, 2 cm of overlap
+    two = np.vstack([nodes, nodes + [shift, 0.0, 0.0]])
+    both = np.vstack([tets, tets + n])
+    assert client.register("pair", two, both, self_contact=True, contacts=True,
+                           response="point") == 1
+    client.wait_registered("pair", 20.0).check("pair")
+    client.publish(0, {"pair": two})
+    answer = client.wait_forces(0, 20.0)
+    assert answer is not None and answer.ok
+    f = answer["pair"]
+    assert len(f.nodes) > 0
+    left = f.forces[f.nodes < n].sum(axis=0)
+    right = f.forces[f.nodes >= n].sum(axis=0)
+    assert left[0] < 0 < right[0]  # apart along x
+    assert np.linalg.norm(left + right) < 1e-9 * np.linalg.norm(left)
+    c = f.contacts
+    assert len(c) > 0 and set(c.other) == {"pair"} and c.intrudes.all()
+    assert (c.depth > 0).all() and (c.depth <= 0.02 + 1e-9).all()
