@@ -46,7 +46,7 @@ std::optional<TetMesh> data_mesh(const char* name) {
 
 /// TorusInBox and TurningTorusInBox: the torus turning about its own axis by `turn` rad a
 /// frame (0: not turning).
-void torus_in_box(benchmark::State& state, double turn) {
+void torus_in_box(benchmark::State& state, double turn, bool self_contact = false) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(state.range(0)));
   const double depth = static_cast<double>(state.range(1)) * 1e-6;
@@ -62,7 +62,11 @@ void torus_in_box(benchmark::State& state, double turn) {
   ObjectParams floor;
   floor.is_static = true;
   if (!pipeline.set_topology("box", 1, *box, floor) ||
-      !pipeline.set_topology("torus", 1, *torus, {})) {
+      !pipeline.set_topology("torus", 1, *torus, [&] {
+        ObjectParams p;
+        p.self_contact = self_contact;
+        return p;
+      }())) {
     state.SkipWithError("registration failed");
     return;
   }
@@ -130,6 +134,13 @@ void TurningTorusInBox(benchmark::State& state) {
 /// whole gate every frame). mesh 0: the torus (data/meshes/torus.msh), 1: the 303,918-tet
 /// structured box, 2: the 2-layer tissue slab (data/meshes/slab.msh).
 void SelfGate(benchmark::State& state);
+
+/// TorusSelfInBox/<threads>/<depth_um>/<self>: TorusInBox with the torus's self-contact off
+/// (0) or on (1): what asking for it adds to a frame of a scene in contact (the torus does
+/// not touch itself).
+void TorusSelfInBox(benchmark::State& state) {
+  torus_in_box(state, 0.0, state.range(2) != 0);
+}
 
 TetMesh large_box(int cells) {
   return test::structured_box(cells, cells, cells, Eigen::Vector3d::Zero(),
@@ -283,6 +294,50 @@ BENCHMARK(SelfFold)
     ->ArgName("overlap_um")
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+/// OrganWithTool/<self>: the 303,918-tet box (1 m cube) and a 2 cm tool (a 4 x 4 x 4-cell
+/// structured box, 384 tets) pressed 2 mm into its top face, every node of both moved by
+/// 1e-6 m each frame, point response; the organ's self-contact off (0) or on (1).
+void OrganWithTool(benchmark::State& state) {
+  const TetMesh organ = large_box(37);
+  const TetMesh tool = test::structured_box(4, 4, 4, Eigen::Vector3d(0.49, 0.49, 0.998),
+                                            Eigen::Vector3d(0.51, 0.51, 1.018));
+  ObjectParams params;
+  params.response = ResponseKind::kPoint;
+  ObjectParams organ_params = params;
+  organ_params.self_contact = state.range(0) != 0;
+  Pipeline pipeline;
+  if (!pipeline.set_topology("organ", 1, organ, organ_params) ||
+      !pipeline.set_topology("tool", 1, tool, params)) {
+    state.SkipWithError("registration failed");
+    return;
+  }
+  std::vector<std::array<Positions, 2>> frames;
+  for (std::int64_t f = 0; f < 8; ++f)
+    frames.push_back({jittered(organ.positions, 1e-6, f), jittered(tool.positions, 1e-6, f + 100)});
+  std::vector<FrameObjectInput> states(2);
+  states[0].object = "organ";
+  states[1].object = "tool";
+  states[0].topology_version = states[1].topology_version = 1;
+  std::int64_t frame = 0;
+  std::size_t contacts = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    for (std::size_t i = 0; i < 2; ++i)
+      states[i].positions = frames[static_cast<std::size_t>(frame) % frames.size()][i];
+    state.ResumeTiming();
+    const FrameOutput out = pipeline.run_frame_taking(frame++, states);
+    contacts = out.stats.contacts;
+    if (!out.errors.empty()) state.SkipWithError(out.errors.front().error.message.c_str());
+  }
+  state.counters["contacts"] = static_cast<double>(contacts);
+}
+
+BENCHMARK(OrganWithTool)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("self")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(SelfGate)
     ->Args({0, 1})
     ->Args({1, 1})
@@ -314,6 +369,13 @@ BENCHMARK(TurningTorusInBox)
     ->Args({1, 5000})
     ->Args({2, 5000})
     ->ArgNames({"threads", "depth_um"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(kFramesPerRun);
+BENCHMARK(TorusSelfInBox)
+    ->Args({2, 5000, 0})
+    ->Args({2, 5000, 1})
+    ->ArgNames({"threads", "depth_um", "self"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(kFramesPerRun);
