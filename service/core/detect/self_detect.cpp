@@ -101,6 +101,13 @@ bool triangles_meet(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t, 
   // At least a few ulps of the products, so that exact contact is never lost to rounding.
   const double r = std::max(rel, 64.0 * std::numeric_limits<double>::epsilon());
   const double eps = r * scale * scale * scale, eps2 = r * scale * scale;
+  // Most pairs: one triangle wholly on one side of the other's plane.
+  const auto apart = [&](const std::array<Vec3, 3>& p, const std::array<Vec3, 3>& q) {
+    const double d0 = orient(p[0], p[1], p[2], q[0]), d1 = orient(p[0], p[1], p[2], q[1]),
+                 d2 = orient(p[0], p[1], p[2], q[2]);
+    return (d0 > eps && d1 > eps && d2 > eps) || (d0 < -eps && d1 < -eps && d2 < -eps);
+  };
+  if (apart(a, b) || apart(b, a)) return false;
   for (int k = 0; k < 3; ++k) {
     const auto i = static_cast<std::size_t>(k), j = static_cast<std::size_t>((k + 1) % 3);
     if (segment_meets_triangle(a[i], a[j], b[0], b[1], b[2], eps, eps2)) return true;
@@ -137,8 +144,9 @@ double box_gap(const Aabb& a, const Aabb& b) {
 /// A lower bound of the distance between two triangles: the largest gap between their
 /// projections on the separating axes of two triangles (both normals, the 9 edge-edge
 /// cross products, and each normal crossed with its triangle's edges for coplanar ones), 0
-/// when none separates.
-double separation(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t) {
+/// when none separates. A plane of one triangle that keeps the other `enough` away ends
+/// the search there.
+double separation(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t, double enough) {
   const Vec3 o = s[0];
   std::array<Vec3, 3> a, b;
   for (std::size_t k = 0; k < 3; ++k) {
@@ -163,6 +171,7 @@ double separation(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t) {
   const Vec3 nb = (b[1] - b[0]).cross(b[2] - b[0]);
   axis(na);
   axis(nb);
+  if (best >= enough) return best;       // a plane keeps them apart by enough
   for (std::size_t i = 0; i < 3; ++i) {  // in-plane axes: what separates coplanar triangles
     axis(na.cross(a[(i + 1) % 3] - a[i]));
     axis(nb.cross(b[(i + 1) % 3] - b[i]));
@@ -460,14 +469,15 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
     if (!face_boxes_[f].overlaps(face_boxes_[g])) {  // boxes that nearly touch: the triangles'
       const double gap = box_gap(face_boxes_[f], face_boxes_[g]);  // own gap, if larger
       if (measure)
-        cert = std::min(cert, 0.5 * (gap >= near_gap_ ? gap : std::max(gap, separation(s, t))));
+        cert = std::min(
+            cert, 0.5 * (gap >= near_gap_ ? gap : std::max(gap, separation(s, t, near_gap_))));
       return;
     }
     ++st.surface_pairs;
     if (triangles_meet(s, t, rel))
       crossing_.push_back({std::min(fi, gi), std::max(fi, gi)});
     else if (measure)
-      cert = std::min(cert, 0.5 * separation(s, t));
+      cert = std::min(cert, 0.5 * separation(s, t, near_gap_));
   };
   std::vector<std::pair<Index, Index>> stack;
   stack.emplace_back(0, 0);
