@@ -103,6 +103,18 @@ void drop_left_out(SelfContacts& contacts, std::span<const Index> out) {
 // One registered object: its topology-derived data (built in set_topology or
 // set_surface) and its per-frame state. A surface object has `surface` set, an empty
 // `mesh`, an edge topology and no body, check order or depth solver.
+/// Self-contact of one object (ObjectParams::self_contact, tet objects): its detector, what
+/// the response leaves out of a node's face search, and this frame's contacts. At namespace
+/// scope, not nested in SceneObject: clang decides std::optional of a nested class with
+/// default member initializers is not default-constructible while the outer class is open.
+struct SelfContactState {
+  std::unique_ptr<SelfCollider> collider;
+  std::vector<Index> node_component;
+  SelfContactView view;
+  SelfContacts contacts;
+  bool stale = true;  ///< positions changed since `contacts` were found
+};
+
 struct SceneObject {
   std::string name;
   std::uint32_t version = 0;
@@ -123,17 +135,8 @@ struct SceneObject {
   Positions velocities;  ///< current frame's velocities, or empty (at rest)
   std::unique_ptr<CollisionBody> body;
   std::unique_ptr<DepthSolver> depth;
-  /// Self-contact (ObjectParams::self_contact, tet objects): its detector, what the
-  /// response leaves out of a node's face search, and this frame's contacts.
-  struct Self {
-    std::unique_ptr<SelfCollider> collider;
-    std::vector<Index> node_component;
-    SelfContactView view;
-    SelfContacts contacts;
-    bool stale = true;  ///< positions changed since `contacts` were found
-  };
-  std::optional<Self> self;
-  bool static_depth_ready = false;  ///< static objects: full map computed once
+  std::optional<SelfContactState> self;  ///< ObjectParams::self_contact, tet objects
+  bool static_depth_ready = false;       ///< static objects: full map computed once
   /// A state of this version was applied: until then a moving object's positions are its
   /// rest positions, which are not a state, and it takes no part in contact.
   bool has_state = false;
@@ -606,7 +609,7 @@ void Pipeline::Impl::detect_pairs(FrameOutput& out) {
 void Pipeline::Impl::detect_self(FrameOutput& out) {
   for (SceneObject* obj : frame_objects) {
     if (!obj->self) continue;
-    SceneObject::Self& self = *obj->self;
+    SelfContactState& self = *obj->self;
     if (self.stale) {
       SelfDetectStats st;
       self.collider->detect(obj->positions, detect_options.relative_tolerance, self.contacts, &st);
