@@ -471,6 +471,7 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
   EXPECT_EQ(b.version_before, version);
   if (!b.bounded) {
     EXPECT_EQ(b.version_after, b.version_before);
+    EXPECT_TRUE(std::isinf(b.motion));
     return;
   }
   EXPECT_TRUE(report.clean());
@@ -479,6 +480,7 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
     EXPECT_EQ(q, x);
     EXPECT_EQ(b.shift, Eigen::Vector3d::Zero());
     EXPECT_EQ(b.version_after, b.version_before + 1);
+    EXPECT_EQ(b.motion, 0.0);
     return;
   }
   EXPECT_EQ(b.version_after, b.version_before + (b.moved.empty() ? 0 : 1));
@@ -497,6 +499,7 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
   }
   const Eigen::Matrix3d& m = b.rotation;
   const Eigen::Vector3d& p = b.pivot;
+  double most = 0.0;  // the largest d2 of a node in a tet that did not move: b.motion^2
   for (Index i = 0; i < x.cols(); ++i) {
     const auto k = static_cast<std::size_t>(i);
     if (moved[k]) {
@@ -520,10 +523,12 @@ void expect_bound_holds(const MotionBound& b, std::uint64_t version, const Posit
       d2 += d * d;
     }
     EXPECT_LE(d2, radius2[k]) << i;
+    if (radius2[k] < std::numeric_limits<double>::max()) most = std::max(most, d2);
     if (!changed[k]) {
       EXPECT_EQ(b.radius2[k], radius2[k]) << i;
     }
   }
+  EXPECT_EQ(b.motion, std::sqrt(most));
 }
 
 using test::BothKernels;

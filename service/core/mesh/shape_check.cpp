@@ -311,12 +311,12 @@ namespace detail {
 /// The pass of the copy this CPU runs (motion_pass.inc).
 void motion_pass(const double* x, const double* blocks, const double* rad2, const double* shift,
                  const double* turn, std::size_t begin, std::size_t end, std::vector<Index>& moved,
-                 PointBox& box) {
+                 PointBox& box, double& within2) {
 #if TC_HAS_AVX2_REGION
   if (use_avx2_kernels())
-    return avx2::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
+    return avx2::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box, within2);
 #endif
-  baseline::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box);
+  baseline::motion_pass(x, blocks, rad2, shift, turn, begin, end, moved, box, within2);
 }
 
 }  // namespace detail
@@ -437,6 +437,7 @@ void ShapeCheck::rebuild(const Positions& positions) {
                      });
   last_.rebuilt = true;
   last_.bounded = true;  // every node at its reference, no shift
+  last_.motion2 = 0.0;
   last_.shift.setZero();
   last_.rotated = false;
   last_.rotation.setIdentity();
@@ -457,6 +458,7 @@ MotionBound ShapeCheck::bound() const {
   b.pivot = last_.pivot;
   b.reference = &reference_;
   b.radius2 = radius2_;
+  b.motion = b.bounded ? std::sqrt(last_.motion2) : std::numeric_limits<double>::infinity();
   if (b.version_after != b.version_before && !b.rebuilt) {
     b.moved = moved_;
     b.changed = nodes_;
@@ -611,16 +613,21 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     const std::size_t chunks = detail::num_chunks(n, chunk);
     detail::reset_parts(moved_parts_, chunks);
     pass_boxes_.assign(chunks, PointBox{});
+    pass_within2_.assign(chunks, 0.0);
     const double* turn = turned ? motion.turn : nullptr;
     detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
       PointBox box;
+      double within2 = 0.0;
       detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, begin, end,
-                          moved_parts_[c], box);
+                          moved_parts_[c], box, within2);
       pass_boxes_[c] = box;
+      pass_within2_[c] = within2;
     });
     detail::concat_parts(moved_parts_, chunks, moved_);
     PointBox box;
     for (const PointBox& part : pass_boxes_) box.add(part);
+    last_.motion2 = 0.0;  // (a maximum: the same whatever the chunks)
+    for (const double w : pass_within2_) last_.motion2 = std::max(last_.motion2, w);
     last_.has_box = true;
     last_.box_lo = box.lo();
     last_.box_hi = box.hi();

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -48,6 +49,11 @@ struct MotionBound {
   const Positions* reference = nullptr;
   std::span<const double> radius2;  ///< per node, after this check: -1 always checked
   std::span<const Index> moved, changed;
+  /// When `bounded`: every node in a tet that is not in `moved` lies within `motion` of its
+  /// reference shifted (and turned), as the test computed it (up to its rounding: a few
+  /// eps of the coordinates); the nodes in `moved` are at their new references. Infinity
+  /// when not bounded. For the self-contact gate's certificate (SelfCollider::detect).
+  double motion = std::numeric_limits<double>::infinity();
 };
 
 /// validate_positions() for the successive states of one object, the same reports at a
@@ -106,6 +112,9 @@ class ShapeCheck {
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
     Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
     std::uint64_t version_before = 0, version_after = 0;
+    /// The largest squared motion of a node within its radius (MotionBound::motion), when
+    /// the motion pass ran; 0 after a rebuild.
+    double motion2 = std::numeric_limits<double>::infinity();
   };
 
   /// Throws std::invalid_argument when `node_tets` does not have `num_nodes` rows.
@@ -155,6 +164,7 @@ class ShapeCheck {
   std::vector<std::size_t> outside_;  ///< scratch of check(): sampled nodes beyond the first fit
   detail::ChunkBuffers<Index> moved_parts_;  ///< per chunk of the motion pass: moved nodes
   std::vector<PointBox> pass_boxes_;         ///< per chunk of the motion pass: its box
+  std::vector<double> pass_within2_;         ///< per chunk of the motion pass: its motion2
   std::vector<Tet> tets_;
   std::vector<Index> index_;
   std::size_t busy_streak_ = 0;  ///< full checks in a row
