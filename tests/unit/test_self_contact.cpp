@@ -8,14 +8,18 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <numbers>
 #include <random>
 #include <vector>
 
 #include "core/depth/boundary_bvh.hpp"
 #include "core/detect/self_detect.hpp"
 #include "core/mesh/geometry.hpp"
+#include "core/mesh/shape_check.hpp"
 #include "core/mesh/topology.hpp"
+#include "core/mesh/validate.hpp"
 #include "core/pipeline/pipeline.hpp"
 #include "test_meshes.hpp"
 
@@ -312,6 +316,64 @@ TEST(SelfContact, AFoldOfOneComponentIsPushedApart) {
 }
 
 // Off by default: the same bent U without self_contact gets nothing.
+// The gate's certificate told by the shape check's bound (SelfCollider::detect given a
+// MotionBound, as the pipeline does) gives the contacts the gate gives without it, frame
+// by frame, while the U closes on itself and opens again, jitters and shifts; jitter and
+// shifts alone are certified without a pass over the boundary nodes.
+TEST(SelfContact, TheShapeChecksBoundGivesTheSameContacts) {
+  const BentU u = bent_u(0.0);
+  const TetMesh& mesh = u.mesh;
+  const Topology topo = build_topology(mesh.tets, mesh.num_nodes());
+  const TetCheckOrder order = make_tet_check_order(mesh.positions, mesh.tets);
+  ValidationOptions options;
+  options.compute_min_quality = false;
+  ShapeCheck check(order, topo.node_tets, mesh.num_nodes(), options);
+  SelfCollider with_bound(mesh.tets, topo, mesh.positions);
+  SelfCollider without(mesh.tets, topo, mesh.positions);
+  std::mt19937_64 rng(45);
+  std::uniform_real_distribution<double> jitter(-1e-6, 1e-6);
+  std::size_t by_bound = 0, in_contact = 0, frames = 0;
+  for (int frame = 0; frame < 240; ++frame) {
+    // Still for 40 frames, then closing to 6 mm past the slot and opening again, with
+    // every node jittered and the whole U shifted 0.1 mm a frame.
+    const double phase = frame < 40 ? 0.0 : std::sin(std::numbers::pi * (frame - 40) / 200.0);
+    const double reach = 0.026 * phase;
+    Positions x = u.mesh.positions;
+    for (Index i = 0; i < x.cols(); ++i) {
+      const double px = x(0, i), pz = x(2, i);
+      if (px <= 0.02 + 1e-12 && pz > 0.02) x(0, i) += (pz - 0.02) / 0.04 * reach;
+      for (int c = 0; c < 3; ++c) x(c, i) += jitter(rng) + (c == 1 ? 1e-4 * frame : 0.0);
+    }
+    const ValidationReport report = check.check(x);
+    ASSERT_TRUE(report.clean()) << frame;
+    const MotionBound bound = check.bound();
+    SelfContacts a, b;
+    SelfDetectStats sa, sb;
+    with_bound.detect(x, kDefaultRelativeTolerance, a, &sa, &bound);
+    without.detect(x, kDefaultRelativeTolerance, b, &sb);
+    ASSERT_EQ(a.parts.size(), b.parts.size()) << frame;
+    EXPECT_EQ(a.marked, b.marked) << frame;
+    for (std::size_t k = 0; k < a.parts.size(); ++k) {
+      const PairContacts& pa = a.parts[k].contacts;
+      const PairContacts& pb = b.parts[k].contacts;
+      EXPECT_EQ(pa.overlapping, pb.overlapping) << frame;
+      EXPECT_EQ(pa.nodes_a_in_b.size(), pb.nodes_a_in_b.size()) << frame;
+      EXPECT_EQ(pa.edges_a_in_b.size(), pb.edges_a_in_b.size()) << frame;
+    }
+    by_bound += sa.certified_by_bound ? 1 : 0;
+    in_contact += a.empty() ? 0 : 1;
+    ++frames;
+    EXPECT_FALSE(sb.certified_by_bound);
+    if (sa.certified_by_bound) {
+      EXPECT_TRUE(a.empty()) << frame;
+    }
+  }
+  std::printf("by bound %zu, in contact %zu of %zu frames\n", by_bound, in_contact, frames);
+  EXPECT_EQ(frames, 240u);
+  EXPECT_GT(in_contact, 40u);  // the U did close on itself
+  EXPECT_GT(by_bound, 30u);    // and the still frames were told by the bound
+}
+
 TEST(SelfContact, OffByDefault) {
   const BentU u = bent_u(0.025);
   Pipeline pipeline;

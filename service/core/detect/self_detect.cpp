@@ -536,16 +536,68 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
   // A certificate only where nothing crosses, from these positions.
   cert_ = crossing_.empty() && std::isfinite(cert) ? cert : 0.0;
   st.certificate = cert_;
+  synced_ = false;
   if (cert_ > 0.0) {
     const auto& nodes = topology_.boundary_nodes;
     cert_x_.resize(nodes.size());
-    for (std::size_t k = 0; k < nodes.size(); ++k) cert_x_[k] = x.col(nodes[k]);
+    cert_scale_ = 0.0;
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      cert_x_[k] = x.col(nodes[k]);
+      cert_scale_ = std::max(cert_scale_, cert_x_[k].cwiseAbs().maxCoeff());
+    }
   }
   return !crossing_.empty();
 }
 
-bool SelfCollider::within_certificate(const Positions& x) const {
+bool SelfCollider::within_bound(const MotionBound* bound) {
+  const bool usable = bound != nullptr && bound->bounded && !bound->rotated && !bound->rebuilt &&
+                      bound->reference != nullptr && std::isfinite(bound->motion);
+  if (!(synced_ && usable && bound->version_before == sync_version_)) {
+    synced_ = false;
+    return false;
+  }
+  // The nodes that moved beyond their radii got new references: how far those are from
+  // the certificate's positions.
+  const auto& nodes = topology_.boundary_nodes;
+  for (const Index v : bound->moved) {
+    const auto it = std::lower_bound(nodes.begin(), nodes.end(), v);
+    if (it == nodes.end() || *it != v) continue;
+    const auto k = static_cast<std::size_t>(it - nodes.begin());
+    offset_ = std::max(offset_, (bound->reference->col(v) + sync_shift_ - cert_x_[k]).norm());
+  }
+  sync_version_ = bound->version_after;
+  // Each boundary node k, after the translation shift - sync_shift_: |x_k - cert_x_k - t|
+  // <= |x_k - shift - ref_k| + |ref_k + sync_shift_ - cert_x_k| <= motion + offset_. The
+  // slack covers the rounding of both (a few eps of the coordinates and shifts).
+  const double slack = 1e-12 * (cert_scale_ + bound->shift.cwiseAbs().maxCoeff() +
+                                sync_shift_.cwiseAbs().maxCoeff());
+  return (bound->motion + offset_) * (1.0 + 1e-12) + slack <= cert_;
+}
+
+void SelfCollider::sync_bound(const MotionBound* bound, bool pass) {
+  synced_ = cert_ > 0.0 && bound != nullptr && bound->bounded && !bound->rotated &&
+            bound->reference != nullptr && std::isfinite(bound->motion);
+  if (!synced_) return;
+  sync_version_ = bound->version_after;
+  sync_shift_ = bound->shift;
+  if (!pass) {  // cert_x_ are these positions: each within motion of its reference + shift
+    offset_ = bound->motion;
+    return;
+  }
+  const auto& nodes = topology_.boundary_nodes;
+  offset_ = 0.0;
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    offset_ =
+        std::max(offset_, (bound->reference->col(nodes[k]) + sync_shift_ - cert_x_[k]).norm());
+}
+
+bool SelfCollider::within_certificate(const Positions& x, const MotionBound* bound,
+                                      SelfDetectStats& st) {
   if (!(cert_ > 0.0)) return false;
+  if (within_bound(bound)) {
+    st.certified_by_bound = true;
+    return true;
+  }
   const auto& nodes = topology_.boundary_nodes;
   const double limit2 = cert_ * cert_;
   // Most frames: every node within the certificate as it is.
@@ -556,11 +608,13 @@ bool SelfCollider::within_certificate(const Positions& x) const {
     mean += d;
     inside = inside && d.squaredNorm() <= limit2;
   }
-  if (inside) return true;
-  // A translation of the whole boundary changes no crossing: remove the mean displacement.
-  mean /= static_cast<double>(std::max<std::size_t>(1, nodes.size()));
-  for (std::size_t k = 0; k < nodes.size(); ++k)
-    if (!((x.col(nodes[k]) - cert_x_[k] - mean).squaredNorm() <= limit2)) return false;
+  if (!inside) {
+    // A translation of the whole boundary changes no crossing: remove the mean displacement.
+    mean /= static_cast<double>(std::max<std::size_t>(1, nodes.size()));
+    for (std::size_t k = 0; k < nodes.size(); ++k)
+      if (!((x.col(nodes[k]) - cert_x_[k] - mean).squaredNorm() <= limit2)) return false;
+  }
+  if (!synced_) sync_bound(bound, true);  // (once: the next frames need no pass)
   return true;
 }
 
@@ -829,18 +883,19 @@ void SelfCollider::tet_stage(const Positions& x, const Aabb& region, double rel,
 }
 
 void SelfCollider::detect(const Positions& positions, double relative_tolerance, SelfContacts& out,
-                          SelfDetectStats* stats) {
+                          SelfDetectStats* stats, const MotionBound* bound) {
   out.clear();
   SelfDetectStats st;
   const double rel = relative_tolerance > 0.0 ? relative_tolerance : 0.0;
   const auto t0 = Clock::now();
-  if (within_certificate(positions)) {
+  if (within_certificate(positions, bound, st)) {
     st.certified = true;
     st.surface_ms = ms_since(t0);
     if (stats != nullptr) *stats = st;
     return;
   }
   const bool crossing = surface_gate(positions, rel, st);
+  sync_bound(bound, false);  // (no certificate when crossing)
   st.surface_ms = ms_since(t0);
   if (crossing) {
     const auto t1 = Clock::now();

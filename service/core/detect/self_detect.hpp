@@ -23,12 +23,14 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
 #include "core/detect/broad_phase.hpp"
 #include "core/detect/contacts.hpp"
 #include "core/detect/tet_overlap.hpp"
+#include "core/mesh/shape_check.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 
@@ -62,6 +64,8 @@ struct SelfDetectStats {
   /// The boundary moved less than the last gate's certificate allows: no crossing, and
   /// nothing else ran (SelfCollider::detect).
   bool certified = false;
+  /// ... told by the shape check's MotionBound, without a pass over the boundary nodes.
+  bool certified_by_bound = false;
   /// The certificate a gate that found no crossing left: how far each boundary node may
   /// move (after a common translation) before the next gate runs, metres.
   double certificate = 0.0;
@@ -96,18 +100,29 @@ class SelfCollider {
   /// (after one common translation) before any of its decisions could change: a box gap, a
   /// triangle pair's separation, a normal cone's slack to 90 degrees (docs/DETECTION.md,
   /// "Self-contact"). While the boundary stays that close to those positions, later calls
-  /// answer "no self-contact" from one pass over the boundary nodes.
+  /// answer "no self-contact" from one pass over the boundary nodes; or from none, given
+  /// `bound`: what the shape check (ShapeCheck::bound) proved of these same positions, in
+  /// every call since the certificate (its versions tell): every node within
+  /// MotionBound::motion of its reference after a shift, which with how far the references
+  /// lie from the certificate's positions bounds every node's motion.
   void detect(const Positions& positions, double relative_tolerance, SelfContacts& out,
-              SelfDetectStats* stats = nullptr);
+              SelfDetectStats* stats = nullptr, const MotionBound* bound = nullptr);
 
  private:
   struct SurfaceNode;
   struct Frame;
   void build_surface_tree(const Positions& rest);
   bool surface_gate(const Positions& x, double relative_tolerance, SelfDetectStats& st);
-  /// True when the boundary nodes of `x` lie within cert_ of cert_x_ after removing their
-  /// mean displacement.
-  [[nodiscard]] bool within_certificate(const Positions& x) const;
+  /// True when the boundary nodes of `x` lie within cert_ of cert_x_ after removing one
+  /// common translation: by `bound` (within_bound), else after removing their mean
+  /// displacement.
+  [[nodiscard]] bool within_certificate(const Positions& x, const MotionBound* bound,
+                                        SelfDetectStats& st);
+  /// The bound's part of within_certificate(): true when it proves it; keeps offset_.
+  [[nodiscard]] bool within_bound(const MotionBound* bound);
+  /// Starts keeping offset_ from `bound` (of positions within the certificate); `pass`:
+  /// measure it over the boundary nodes, else the certificate was taken at these positions.
+  void sync_bound(const MotionBound* bound, bool pass);
   Aabb flood_region(const Positions& x, double relative_tolerance, SelfDetectStats& st);
   void tet_stage(const Positions& x, const Aabb& region, double relative_tolerance,
                  SelfContacts& out, SelfDetectStats& st);
@@ -131,6 +146,14 @@ class SelfCollider {
   // none).
   std::vector<Eigen::Vector3d> cert_x_;
   double cert_ = 0.0;
+  double cert_scale_ = 0.0;  ///< the largest coordinate of cert_x_ (for rounding)
+  // The certificate by the shape check's bound (within_bound): while synced_, every
+  // boundary node's reference (MotionBound::reference, version sync_version_) plus
+  // sync_shift_ lies within offset_ of its cert_x_.
+  bool synced_ = false;
+  std::uint64_t sync_version_ = 0;
+  Eigen::Vector3d sync_shift_ = Eigen::Vector3d::Zero();
+  double offset_ = 0.0;
   /// Node or triangle boxes nearer than this (a twentieth of the mean boundary edge at
   /// rest) are looked into, not certified by their gap alone.
   double near_gap_ = 0.0;

@@ -612,7 +612,11 @@ void Pipeline::Impl::detect_self(FrameOutput& out) {
     SelfContactState& self = *obj->self;
     if (self.stale) {
       SelfDetectStats st;
-      self.collider->detect(obj->positions, detect_options.relative_tolerance, self.contacts, &st);
+      // The shape check's bound is of these positions (or not bounded: a rejected or
+      // degraded state, none yet); its versions tell the collider what it missed.
+      const MotionBound bound = obj->shape_check->bound();
+      self.collider->detect(obj->positions, detect_options.relative_tolerance, self.contacts, &st,
+                            &bound);
       if (!obj->left_out_tets.empty()) drop_left_out(self.contacts, obj->left_out_tets);
       self.stale = false;
       out.stats.broad_ms += st.surface_ms;
