@@ -54,6 +54,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "metrics_scrape.hpp"
 #include "service_common.hpp"
 #include "test_meshes.hpp"
 #include "tetcollide/client.hpp"
@@ -385,8 +386,9 @@ double heap_in_use(int metrics_port, int reads) {
   double least = -1.0;
   for (int i = 0; i < reads; ++i) {
     if (i > 0) std::this_thread::sleep_for(100ms);
-    const double v = tc::bench::metric_value(tc::bench::scrape_metrics(metrics_port),
-                                             "tetcollide_heap_in_use_bytes");
+    const auto text = tc::test::scrape_metrics(metrics_port);
+    const double v =
+        text ? tc::test::metric_sample(*text, "tetcollide_heap_in_use_bytes").value_or(-1.0) : -1.0;
     if (v >= 0.0 && (least < 0.0 || v < least)) least = v;
   }
   return least;

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "daemon_process.hpp"
+#include "metrics_scrape.hpp"
 #include "scenes.hpp"
 #include "tetcollide/client.hpp"
 
@@ -39,38 +40,10 @@ int metrics_port(const DaemonProcess& d) {
   return std::regex_search(log, m, line) ? std::stoi(m[1].str()) : 0;
 }
 
-/// GET /metrics on 127.0.0.1:port: the body, or nullopt when the request failed.
-std::optional<std::string> scrape(int port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return std::nullopt;
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  timeval timeout{5, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  std::string response;
-  if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) {
-    const std::string request = "GET /metrics HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n";
-    if (send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size())) {
-      char buf[4096];
-      ssize_t n = 0;
-      while ((n = recv(fd, buf, sizeof buf, 0)) > 0) response.append(buf, static_cast<size_t>(n));
-    }
-  }
-  close(fd);
-  const auto body = response.find("\r\n\r\n");
-  if (response.rfind("HTTP/1.", 0) != 0 || response.find(" 200 ") > 12 || body == std::string::npos)
-    return std::nullopt;
-  return response.substr(body + 4);
-}
+using tc::test::scrape_metrics;
 
-/// The value of the sample line `series` (name and labels exactly as served), or nullopt.
 std::optional<double> sample(const std::string& text, const std::string& series) {
-  const std::string prefix = series + " ";
-  for (std::size_t at = 0; (at = text.find(prefix, at)) != std::string::npos; at += prefix.size())
-    if (at == 0 || text[at - 1] == '\n') return std::stod(text.substr(at + prefix.size()));
-  return std::nullopt;
+  return tc::test::metric_sample(text, series);
 }
 
 /// Scrapes until `series` has the value `want` (absent: nullopt) or `timeout` passed;
@@ -81,7 +54,7 @@ std::optional<double> wait_value(int port, const std::string& series, std::optio
   const auto deadline = Clock::now() + timeout;
   std::optional<double> seen;
   while (true) {
-    if (const auto text = scrape(port)) seen = sample(*text, series);
+    if (const auto text = scrape_metrics(port)) seen = sample(*text, series);
     if (seen == want || Clock::now() > deadline) return seen;
     std::this_thread::sleep_for(20ms);
   }
@@ -122,7 +95,7 @@ TEST_F(MetricsTest, ScrapedValuesFollowFramesObjectsAndRejections) {
   ASSERT_TRUE(primary_->start());
   const int port = metrics_port(*primary_);
   ASSERT_GT(port, 0) << "no 'metrics: serving' line";
-  const auto before = scrape(port);
+  const auto before = scrape_metrics(port);
   ASSERT_TRUE(before) << "GET /metrics failed";
   for (const char* name :
        {"process_resident_memory_bytes", "process_cpu_seconds_total", "process_open_fds",
@@ -149,7 +122,7 @@ TEST_F(MetricsTest, ScrapedValuesFollowFramesObjectsAndRejections) {
     ++answered;
   }
   EXPECT_EQ(wait_value(port, R"(tetcollide_frames_total{scene="m"})", answered), answered);
-  const auto text = scrape(port);
+  const auto text = scrape_metrics(port);
   ASSERT_TRUE(text);
   EXPECT_EQ(sample(*text, R"(tetcollide_frame_compute_seconds_count{scene="m"})"), answered);
   EXPECT_EQ(sample(*text, R"(tetcollide_frame_compute_seconds_bucket{scene="m",le="+Inf"})"),
@@ -164,7 +137,7 @@ TEST_F(MetricsTest, ScrapedValuesFollowFramesObjectsAndRejections) {
   EXPECT_EQ(sample(*text, R"(tetcollide_dropped_frames_total{scene="m"})"), 0.0);
   // The only daemon: clients take its answers, nobody else's ever.
   EXPECT_EQ(wait_value(port, R"(tetcollide_answer_owner{scene="m"})", 1.0), 1.0);
-  EXPECT_EQ(sample(*scrape(port), R"(tetcollide_ownership_changes_total{scene="m"})"), 0.0);
+  EXPECT_EQ(sample(*scrape_metrics(port), R"(tetcollide_ownership_changes_total{scene="m"})"), 0.0);
 
   // A state for an object nobody registered.
   const auto pa = translated(s.a, {0.0, 0.0, 0.0});
@@ -180,7 +153,7 @@ TEST_F(MetricsTest, ScrapedValuesFollowFramesObjectsAndRejections) {
   EXPECT_EQ(wait_value(port, R"(tetcollide_objects{scene="m"})", 1.0), 1.0);
   c->remove_object("a");
   EXPECT_EQ(wait_value(port, R"(tetcollide_objects{scene="m"})", std::nullopt), std::nullopt);
-  EXPECT_EQ(scrape(port)->find(R"(tetcollide_frames_total{scene="m"})"), std::string::npos);
+  EXPECT_EQ(scrape_metrics(port)->find(R"(tetcollide_frames_total{scene="m"})"), std::string::npos);
 }
 
 TEST_F(MetricsTest, TheStandbyCountsTheFailoverWhenThePrimaryDies) {
@@ -220,13 +193,13 @@ TEST_F(MetricsTest, TheStandbyCountsTheFailoverWhenThePrimaryDies) {
   std::optional<double> standby_frames;
   for (const auto until = Clock::now() + 10s;
        standby_frames.value_or(0) < 1 && Clock::now() < until; std::this_thread::sleep_for(20ms))
-    if (const auto text = scrape(standby_port))
+    if (const auto text = scrape_metrics(standby_port))
       standby_frames = sample(*text, R"(tetcollide_frames_total{scene="f"})");
   EXPECT_GE(standby_frames.value_or(0), 1.0);
   // The standby's answer to the scene's first frame may reach a reader before the
   // primary's (then the primary takes over at once): a change counted before the kill.
   const auto changes_before =
-      sample(*scrape(standby_port), R"(tetcollide_ownership_changes_total{scene="f"})");
+      sample(*scrape_metrics(standby_port), R"(tetcollide_ownership_changes_total{scene="f"})");
   ASSERT_TRUE(changes_before);
   EXPECT_LE(*changes_before, 1.0);
 
@@ -236,12 +209,13 @@ TEST_F(MetricsTest, TheStandbyCountsTheFailoverWhenThePrimaryDies) {
   std::optional<double> owner;
   while (owner != 1.0 && Clock::now() < deadline) {
     stream(1);
-    if (const auto text = scrape(standby_port))
+    if (const auto text = scrape_metrics(standby_port))
       owner = sample(*text, R"(tetcollide_answer_owner{scene="f"})");
   }
   EXPECT_EQ(owner, 1.0) << "the standby never became the owner of scene f";
-  EXPECT_EQ(sample(*scrape(standby_port), R"(tetcollide_ownership_changes_total{scene="f"})"),
-            *changes_before + 1.0);
+  EXPECT_EQ(
+      sample(*scrape_metrics(standby_port), R"(tetcollide_ownership_changes_total{scene="f"})"),
+      *changes_before + 1.0);
 }
 
 TEST(MetricsStartup, ABadAddressOrABusyPortIsAClearError) {
