@@ -135,6 +135,28 @@ std::string usage_problem(const RespondArgs& args) {
   return "";
 }
 
+/// The objects' parameters the flags ask for. (--response and --depth are checked by
+/// CLI11, IsMember: both names parse.)
+ObjectParams object_params(const RespondArgs& args) {
+  ObjectParams params;
+  params.stiffness = args.stiffness;
+  params.friction = args.friction;
+  params.friction_velocity = args.friction_velocity;
+  params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
+  params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
+  return params;
+}
+
+PipelineConfig pipeline_config(const RespondArgs& args) {
+  PipelineConfig config;
+  config.broad_phase = args.broad;
+  config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
+  config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
+                                                       : DepthEvaluation::kNearestFace;
+  config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
+  return config;
+}
+
 /// `respond FILE_A --self`: one tet object and its self-contact, reported as `a`.
 int run_self(const RespondArgs& args) {
   auto read = read_object_mesh(args.file_a);
@@ -148,18 +170,9 @@ int run_self(const RespondArgs& args) {
     mesh.positions =
         Eigen::Vector3d(args.scale_a[0], args.scale_a[1], args.scale_a[2]).asDiagonal() *
         mesh.positions;
-  ObjectParams params;
-  params.stiffness = args.stiffness;
-  params.friction = args.friction;
-  params.friction_velocity = args.friction_velocity;
-  params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
-  params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
+  ObjectParams params = object_params(args);
   params.self_contact = true;
-  PipelineConfig config;
-  config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
-  config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
-                                                       : DepthEvaluation::kNearestFace;
-  config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
+  const PipelineConfig config = pipeline_config(args);
   const double diag = bbox_diagonal(mesh.positions);
   const std::vector<std::int64_t> ids = mesh.node_ids;
   const Positions rest = mesh.positions;
@@ -204,19 +217,8 @@ int run_respond(const RespondArgs& args) {
     positions_of(*b).colwise() += shift;
   }
   const std::string kind_a = kind_of(*a), kind_b = kind_of(*b);
-  ObjectParams params;
-  params.stiffness = args.stiffness;
-  params.friction = args.friction;
-  params.friction_velocity = args.friction_velocity;
-  // --response and --depth are checked by CLI11 (IsMember): both names parse.
-  params.response = parse_response_kind(args.response).value_or(ResponseKind::kAuto);
-  params.depth = parse_depth_method(args.depth).value_or(DepthMethod::kCpfm);
-  PipelineConfig config;
-  config.broad_phase = args.broad;
-  config.record_contacts = !args.contacts_csv.empty() || args.exact_check;
-  config.evaluation = args.evaluation == "interpolate" ? DepthEvaluation::kInterpolate
-                                                       : DepthEvaluation::kNearestFace;
-  config.lazy_region = args.lazy == "whole" ? LazyRegion::kWholeBoundary : LazyRegion::kLocal;
+  const ObjectParams params = object_params(args);
+  const PipelineConfig config = pipeline_config(args);
   const double diag_a = bbox_diagonal(positions_of(*a)), diag_b = bbox_diagonal(positions_of(*b));
   Pipeline pipeline(config);
   std::vector<FrameObjectInput> states(2);
