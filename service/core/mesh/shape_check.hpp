@@ -49,7 +49,7 @@ struct MotionBound {
   const Positions* reference = nullptr;
   std::span<const double> radius2;  ///< per node, after this check: -1 always checked
   std::span<const Index> moved, changed;
-  /// When `bounded`: every node in a tet that is not in `moved` lies within `motion` of its
+  /// When `bounded`: every node that is not in `moved` lies within `motion` of its
   /// reference shifted (and turned), as the test computed it (up to its rounding: a few
   /// eps of the coordinates); the nodes in `moved` are at their new references. Infinity
   /// when not bounded. For the self-contact gate's certificate (SelfCollider::detect).
