@@ -115,8 +115,9 @@ class CountingOutbox final : public Outbox {
   Metrics& metrics_;
 };
 
-/// Live heap bytes as glibc counts them (mallinfo2: uordblks + hblkhd, every arena):
-/// what the program holds, not what the allocator keeps from the OS.
+/// Live heap bytes as glibc counts them (mallinfo2: uordblks + hblkhd, every arena; in a
+/// sanitizer build, as its allocator counts them): what the program holds, not what the
+/// allocator keeps from the OS.
 std::uint64_t heap_in_use_bytes();
 
 }  // namespace tc::daemon
