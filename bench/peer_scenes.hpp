@@ -30,6 +30,7 @@
 #include <string>
 
 #include "core/io/mesh_io.hpp"
+#include "core/mesh/jitter.hpp"  // jitter_positions(): the offsets of respond --jitter
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 
@@ -72,19 +73,6 @@ inline void turn_about_centre(Positions& x, const std::array<double, 4>& turn) {
   const Eigen::Matrix3d rotation =
       Eigen::AngleAxisd(turn[3] * std::numbers::pi / 180.0, axis.normalized()).toRotationMatrix();
   x = (rotation * (x.colwise() - centre)).colwise() + centre;
-}
-
-/// Every coordinate of `base` moved by a seeded offset in [-m, m]: the same offsets as
-/// `respond --jitter m` gives object `object` (0: a, 1: b) in frame `frame`
-/// (client/cli/cli_common.cpp, jitter_positions).
-inline void jitter_positions(const Positions& base, double m, std::int64_t frame, int object,
-                             Positions& out) {
-  out = base;
-  if (!(m > 0.0)) return;
-  std::mt19937_64 rng(0x9e3779b97f4a7c15ULL ^ (static_cast<std::uint64_t>(frame) << 8) ^
-                      static_cast<std::uint64_t>(object));
-  const auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };  // [0, 1)
-  for (Eigen::Index i = 0; i < out.size(); ++i) out.data()[i] += m * (2.0 * unit() - 1.0);
 }
 
 /// Reads the scene's meshes from `meshes_dir` and poses B; the error names the file.

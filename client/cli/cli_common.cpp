@@ -29,16 +29,6 @@ double median(std::vector<double> values) {
   return 0.5 * (lower + upper);
 }
 
-void jitter_positions(const Positions& base, double m, std::int64_t frame, int object,
-                      Positions& out) {
-  out = base;
-  if (!(m > 0.0)) return;
-  std::mt19937_64 rng(0x9e3779b97f4a7c15ULL ^ (static_cast<std::uint64_t>(frame) << 8) ^
-                      static_cast<std::uint64_t>(object));
-  const auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };  // [0, 1)
-  for (Eigen::Index i = 0; i < out.size(); ++i) out.data()[i] += m * (2.0 * unit() - 1.0);
-}
-
 Status turn_about_centre(Positions& x, const std::vector<double>& turn) {
   if (turn.size() != 4) return Error{ErrorCode::kInvalidArgument, "--turn-b takes AX AY AZ DEG"};
   if (!std::all_of(turn.begin(), turn.end(), [](double v) { return std::isfinite(v); }))

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/common/result.hpp"
+#include "core/mesh/jitter.hpp"  // --jitter M: jitter_positions()
 #include "core/mesh/tet_mesh.hpp"
 
 namespace tc::cli {
@@ -38,13 +39,6 @@ inline double elapsed_ms(std::chrono::steady_clock::time_point start) {
 /// of x's box, right-handed (--turn-b AX AY AZ DEG). An error names what is wrong when the
 /// axis is zero or a number is not finite; `x` is then unchanged.
 Status turn_about_centre(Positions& x, const std::vector<double>& turn);
-
-/// --jitter M: `out` = `base` with every coordinate moved by a seeded random offset in
-/// [-M, M], the same for a given (frame, object) on every run and machine (mt19937_64 of
-/// frame and object, the doubles made from its integers), so that repeated frames time a
-/// deforming object instead of the same positions again. M = 0 copies base.
-void jitter_positions(const Positions& base, double m, std::int64_t frame, int object,
-                      Positions& out);
 
 /// Prints a JSON object on stdout (2-space indent, newline).
 void print_json(const nlohmann::json& value);
