@@ -549,10 +549,21 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
   return !crossing_.empty();
 }
 
+namespace {
+
+/// A bound the certificate can use: every node within `motion` of its reference after a
+/// shift alone (not a turn).
+bool shift_bound(const MotionBound* bound) {
+  return bound != nullptr && bound->bounded && !bound->rotated && bound->reference != nullptr &&
+         std::isfinite(bound->motion);
+}
+
+}  // namespace
+
 bool SelfCollider::within_bound(const MotionBound* bound) {
-  const bool usable = bound != nullptr && bound->bounded && !bound->rotated && !bound->rebuilt &&
-                      bound->reference != nullptr && std::isfinite(bound->motion);
-  if (!(synced_ && usable && bound->version_before == sync_version_)) {
+  // (A rebuilt reference is new at every node: offset_ no longer holds.)
+  if (!(synced_ && shift_bound(bound) && !bound->rebuilt &&
+        bound->version_before == sync_version_)) {
     synced_ = false;
     return false;
   }
@@ -575,8 +586,7 @@ bool SelfCollider::within_bound(const MotionBound* bound) {
 }
 
 void SelfCollider::sync_bound(const MotionBound* bound, bool pass) {
-  synced_ = cert_ > 0.0 && bound != nullptr && bound->bounded && !bound->rotated &&
-            bound->reference != nullptr && std::isfinite(bound->motion);
+  synced_ = cert_ > 0.0 && shift_bound(bound);
   if (!synced_) return;
   sync_version_ = bound->version_after;
   sync_shift_ = bound->shift;

@@ -100,9 +100,6 @@ void drop_left_out(SelfContacts& contacts, std::span<const Index> out) {
 
 }  // namespace
 
-// One registered object: its topology-derived data (built in set_topology or
-// set_surface) and its per-frame state. A surface object has `surface` set, an empty
-// `mesh`, an edge topology and no body, check order or depth solver.
 /// Self-contact of one object (ObjectParams::self_contact, tet objects): its detector, what
 /// the response leaves out of a node's face search, and this frame's contacts. At namespace
 /// scope, not nested in SceneObject: clang decides std::optional of a nested class with
@@ -115,6 +112,9 @@ struct SelfContactState {
   bool stale = true;  ///< positions changed since `contacts` were found
 };
 
+// One registered object: its topology-derived data (built in set_topology or
+// set_surface) and its per-frame state. A surface object has `surface` set, an empty
+// `mesh`, an edge topology and no body, check order or depth solver.
 struct SceneObject {
   std::string name;
   std::uint32_t version = 0;
