@@ -6,7 +6,7 @@
 //   Frame/<scene>/<threads>   [FCL] one frame of each, on the same positions, in turn (the
 //       order swapped every frame):
 //       ours  Pipeline::run_frame_taking with the point response, set up as `tetcollide
-//             respond A B --response point` does (client/cli/cmd_respond.cpp: objects "a"
+//             respond A B --response point` does (tools/cli/cmd_respond.cpp: objects "a"
 //             and "b", stiffness 1e4, CPFM, nearest-face depth, local lazy maps, default
 //             broad phase), TBB limited to <threads>
 //       FCL   the boundary triangles of each object in an fcl::BVHModel, refitted to the
@@ -165,7 +165,7 @@ void Frame(benchmark::State& state) {
   }
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(state.range(1)));
-  // As `tetcollide respond A B --response point` (client/cli/cmd_respond.cpp).
+  // As `tetcollide respond A B --response point` (tools/cli/cmd_respond.cpp).
   ObjectParams params;
   params.stiffness = 1e4;
   params.response = ResponseKind::kPoint;

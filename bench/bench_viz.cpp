@@ -1,4 +1,4 @@
-// Headless pictures (client/viz): one 1024x768 frame of the torus over the box (the
+// Headless pictures (tools/viz): one 1024x768 frame of the torus over the box (the
 // demo's scene), with and without wireframe, and the PNG encoding of that frame.
 #include <benchmark/benchmark.h>
 

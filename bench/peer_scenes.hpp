@@ -65,7 +65,7 @@ struct Scene {
 };
 
 /// B turned by turn[3] degrees about the axis turn[0..2] through the centre of its box, as
-/// `respond --turn-b` (client/cli/cli_common.cpp, turn_about_centre).
+/// `respond --turn-b` (tools/cli/cli_common.cpp, turn_about_centre).
 inline void turn_about_centre(Positions& x, const std::array<double, 4>& turn) {
   if (turn[3] == 0.0 || x.cols() == 0) return;
   const Eigen::Vector3d axis(turn[0], turn[1], turn[2]);

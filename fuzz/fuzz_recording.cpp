@@ -1,4 +1,4 @@
-// Fuzz target: the recording file parser of `tetcollide replay` (client/replay,
+// Fuzz target: the recording file parser of `tetcollide replay` (tools/replay,
 // docs/RECORDING.md). The input is the file's content. Every input must give the
 // records or an error naming the line; every record read must encode and decode back.
 #include <cstdint>

@@ -1,4 +1,4 @@
-# ---- render: PNG pictures of mesh boundaries (client/viz) ------------------------------
+# ---- render: PNG pictures of mesh boundaries (tools/viz) ------------------------------
 # The PNG is checked byte-wise: signature, IHDR with the requested size (8-bit RGB, no
 # interlace), and the IEND chunk at the very end. The unit tests decode the pixels.
 set(TC_DATA_MESHES ${CMAKE_SOURCE_DIR}/data/meshes)

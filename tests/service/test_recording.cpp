@@ -1,4 +1,4 @@
-// client/replay/recording: every record type survives the file bit for bit, including
+// tools/replay/recording: every record type survives the file bit for bit, including
 // non-finite numbers; bad files are rejected with the line at fault.
 #include "recording.hpp"
 

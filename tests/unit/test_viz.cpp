@@ -1,4 +1,4 @@
-// client/viz: PNG encoding (decoded back with libpng), rasterizer shading, z-buffer,
+// tools/viz: PNG encoding (decoded back with libpng), rasterizer shading, z-buffer,
 // colour maps, determinism, hostile input, font, plots, the .vtu reader.
 #include <gtest/gtest.h>
 #include <png.h>

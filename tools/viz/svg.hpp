@@ -1,4 +1,4 @@
-// Internal to client/viz: a standalone SVG document written element by element, for the
+// Internal to tools/viz: a standalone SVG document written element by element, for the
 // charts (plot_lines_svg, chart_svg.cpp; the log-log scatter, svg_plot.cpp). Coordinates
 // in pixels with one decimal; text is XML-escaped.
 #pragma once

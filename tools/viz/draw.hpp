@@ -1,4 +1,4 @@
-// Internal to client/viz: pixel helpers shared by the renderer and the plots.
+// Internal to tools/viz: pixel helpers shared by the renderer and the plots.
 #pragma once
 
 #include <array>

@@ -1,4 +1,4 @@
-// Internal to client/viz: a line chart laid out once (ranges, "nice" ticks and their
+// Internal to tools/viz: a line chart laid out once (ranges, "nice" ticks and their
 // labels, the plot area, every series in pixels, the legend's place), for the two
 // writers on top of it: plot_lines (a raster Image, plot.cpp) and plot_lines_svg (SVG,
 // chart_svg.cpp). Sizes follow the built-in 8x13 bitmap font, which the SVG writer

@@ -1,4 +1,4 @@
-// Generates client/viz/font_data.inc: DejaVu Sans Mono glyphs for ASCII 32..126 rendered
+// Generates tools/viz/font_data.inc: DejaVu Sans Mono glyphs for ASCII 32..126 rendered
 // once with FreeType (light hinting, 8-bit coverage) into fixed cells. Development tool
 // only; the build uses the committed table and never needs FreeType.
 //   cc make_font.c $(pkg-config --cflags --libs freetype2) -o make_font
