@@ -1,4 +1,4 @@
-// client/sim/friction_check: the analytic answers of the friction scenes, against made-up
+// sim/friction_check: the analytic answers of the friction scenes, against made-up
 // paths of the block's centre that meet them, miss them, or come from a scene whose
 // parameters contradict the kind asked for.
 #include "friction_check.hpp"

@@ -1,4 +1,4 @@
-// The triangle-based body of the demo (client/sim/shell_body.hpp): rest equilibrium,
+// The triangle-based body of the demo (sim/shell_body.hpp): rest equilibrium,
 // forces that are the energy's gradient, the gas's restoring pressure, free fall, and
 // stability against a stiff penalty floor with and without its stiffness blocks.
 #include "shell_body.hpp"

@@ -1,9 +1,9 @@
 // `tetcollide demo SCENE [--frames N] [--out DIR] [--domain N] [--spawn-daemon]`: a small
-// simulator (client/sim: lumped-mass FEM, backward Euler with the service's contact
+// simulator (sim: lumped-mass FEM, backward Euler with the service's contact
 // stiffness blocks) that drives a running tetcollided over DDS exactly as an external
 // simulator would: it registers the scene's objects, publishes every frame's node
 // positions, waits for the contact forces and blocks and integrates with them. The
-// frame loop itself is sim::SceneRun (client/sim/scene_run.hpp); this file connects it to
+// frame loop itself is sim::SceneRun (sim/scene_run.hpp); this file connects it to
 // the service and writes the outputs. Writes a VTK series, PNG pictures, a stage-time plot and
 // summary.json under --out (default out/<scene>/). docs/DEMO.md documents the scenes,
 // the model, the outputs and the summary keys.
