@@ -44,16 +44,8 @@ int gmsh_element_node_count(int type) noexcept {
 
 namespace {
 
-using io_detail::binary_error;
-using io_detail::LineScanner;
-using io_detail::load_le;
-using io_detail::parse_double;
-using io_detail::parse_int;
-using io_detail::quote;
-using io_detail::TagMap;
-using io_detail::text_error;
-using io_detail::Tokens;
-using io_detail::trim;
+// The readers' shared scanning and error helpers (core/io/scan.hpp).
+using namespace io_detail;  // NOLINT(google-build-using-namespace)
 
 constexpr std::uint64_t kMaxCount = static_cast<std::uint64_t>(std::numeric_limits<Index>::max());
 

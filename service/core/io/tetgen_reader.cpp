@@ -23,13 +23,8 @@
 namespace tc {
 namespace {
 
-using io_detail::LineScanner;
-using io_detail::parse_double;
-using io_detail::parse_int;
-using io_detail::quote;
-using io_detail::text_error;
-using io_detail::Tokens;
-using io_detail::trim;
+// The readers' shared scanning and error helpers (core/io/scan.hpp).
+using namespace io_detail;  // NOLINT(google-build-using-namespace)
 
 /// The next line with content once its '#' comment is removed.
 bool next_record(LineScanner& scan, std::string_view& line) {
@@ -60,6 +55,35 @@ bool header_values(std::string_view line, std::int64_t* values, std::size_t max,
 
 constexpr std::int64_t kMaxCount = std::numeric_limits<Index>::max();
 
+/// Reads a file's header line (its first record); `expected` says what it should hold.
+Status read_header(LineScanner& scan, const std::string& file, const char* expected,
+                   std::string_view& line) {
+  if (!next_record(scan, line))
+    return text_error(
+        ErrorCode::kParse, file, scan.line() + 1,
+        "unexpected end of file, expected " + std::string(expected) + " (empty file)");
+  return {};
+}
+
+/// Reads record `i` (0-based) of the `n` `kind`s ("point", "tet") a file announced, and the
+/// index it starts with; `tok` is left at the values after the index.
+Status read_record_index(LineScanner& scan, const std::string& file, const char* kind,
+                         std::int64_t i, std::int64_t n, std::string_view& line, Tokens& tok,
+                         std::int64_t& index) {
+  const auto what = [&] {
+    return std::string(kind) + " " + std::to_string(i + 1) + " of " + std::to_string(n);
+  };
+  if (!next_record(scan, line))
+    return text_error(ErrorCode::kParse, file, scan.line() + 1,
+                      "unexpected end of file, expected " + what());
+  tok = Tokens(line);
+  std::string_view t;
+  if (!tok.next(t) || !parse_int(t, index))
+    return text_error(ErrorCode::kParse, file, scan.line() == 0 ? 1 : scan.line(),
+                      "expected the index of " + what() + ", got " + quote(trim(line)));
+  return {};
+}
+
 struct NodeFile {
   std::int64_t base = 0;
 };
@@ -71,10 +95,8 @@ Status parse_node_file(std::string_view text, const std::string& file, TetMesh& 
     return text_error(code, file, scan.line() == 0 ? 1 : scan.line(), message);
   };
   std::string_view line;
-  if (!next_record(scan, line))
-    return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                      "unexpected end of file, expected '<#points> <dim> <#attributes> "
-                      "<#markers>' (empty file)");
+  if (Status st = read_header(scan, file, "'<#points> <dim> <#attributes> <#markers>'", line); !st)
+    return st;
   std::int64_t h[5] = {0, 3, 0, 0, 0};
   std::size_t count = 0;
   if (!header_values(line, h, 5, count) || count == 0)
@@ -102,16 +124,10 @@ Status parse_node_file(std::string_view text, const std::string& file, TetMesh& 
   mesh.node_ids.resize(static_cast<std::size_t>(n));
   mesh.positions.resize(3, static_cast<Eigen::Index>(n));
   for (std::int64_t i = 0; i < n; ++i) {
-    const auto what = [&] { return "point " + std::to_string(i + 1) + " of " + std::to_string(n); };
-    if (!next_record(scan, line))
-      return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                        "unexpected end of file, expected " + what());
-    Tokens tok(line);
-    std::string_view t;
+    Tokens tok{std::string_view{}};
     std::int64_t index = 0;
-    if (!tok.next(t) || !parse_int(t, index))
-      return fail(ErrorCode::kParse,
-                  "expected the index of " + what() + ", got " + quote(trim(line)));
+    if (Status st = read_record_index(scan, file, "point", i, n, line, tok, index); !st) return st;
+    std::string_view t;
     if (i == 0) {
       if (index != 0 && index != 1)
         return fail(ErrorCode::kParse,
@@ -160,10 +176,8 @@ Status parse_ele_file(std::string_view text, const std::string& file, const Node
     return text_error(code, file, scan.line() == 0 ? 1 : scan.line(), message);
   };
   std::string_view line;
-  if (!next_record(scan, line))
-    return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                      "unexpected end of file, expected '<#tets> <nodes per tet> "
-                      "<#attributes>' (empty file)");
+  if (Status st = read_header(scan, file, "'<#tets> <nodes per tet> <#attributes>'", line); !st)
+    return st;
   std::int64_t h[3] = {0, 4, 0};
   std::size_t count = 0;
   if (!header_values(line, h, 3, count) || count == 0)
@@ -187,16 +201,10 @@ Status parse_ele_file(std::string_view text, const std::string& file, const Node
   const std::int64_t max_tokens = 5 + nattr;
   mesh.tets.resize(static_cast<std::size_t>(m));
   for (std::int64_t i = 0; i < m; ++i) {
-    const auto what = [&] { return "tet " + std::to_string(i + 1) + " of " + std::to_string(m); };
-    if (!next_record(scan, line))
-      return text_error(ErrorCode::kParse, file, scan.line() + 1,
-                        "unexpected end of file, expected " + what());
-    Tokens tok(line);
-    std::string_view t;
+    Tokens tok{std::string_view{}};
     std::int64_t index = 0;
-    if (!tok.next(t) || !parse_int(t, index))
-      return fail(ErrorCode::kParse,
-                  "expected the index of " + what() + ", got " + quote(trim(line)));
+    if (Status st = read_record_index(scan, file, "tet", i, m, line, tok, index); !st) return st;
+    std::string_view t;
     Tet& tet = mesh.tets[static_cast<std::size_t>(i)];
     std::int64_t got = 1;
     while (tok.next(t)) {
