@@ -8,16 +8,13 @@
 #include "core/io/surface_io.hpp"
 #include "core/mesh/validate.hpp"
 #include "fuzz_input.hpp"
+#include "read_checks.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text = tc::fuzz::as_text(data, size);
   if (auto mesh = tc::read_gmsh_buffer(text, "fuzz.msh")) {
-    TC_FUZZ_CHECK(mesh->node_ids.size() == static_cast<std::size_t>(mesh->num_nodes()));
-    const tc::ValidationReport report = tc::validate_mesh(*mesh);
-    // The reader rejects unknown node tags, so every tet index it returns is in range.
-    TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
-    // ... and non-finite coordinates.
-    TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+    // The reader rejects unknown node tags and non-finite coordinates.
+    tc::fuzz::check_read_mesh(*mesh);
   } else {
     TC_FUZZ_CHECK(!mesh.error().message.empty());
   }
@@ -30,10 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   // The same file as a 3D surface (triangles and no tets).
   if (auto surface = tc::read_gmsh_surface_buffer(text, "fuzz.msh")) {
-    TC_FUZZ_CHECK(surface->num_triangles() > 0);
-    const tc::SurfaceValidationReport report = tc::validate_surface(*surface);
-    TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
-    TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+    tc::fuzz::check_read_surface(*surface);
   } else {
     TC_FUZZ_CHECK(surface.error().message.rfind("fuzz.msh", 0) == 0);
   }

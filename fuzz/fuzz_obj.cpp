@@ -7,6 +7,7 @@
 #include "core/io/surface_io.hpp"
 #include "core/mesh/surface_mesh.hpp"
 #include "fuzz_input.hpp"
+#include "read_checks.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text = tc::fuzz::as_text(data, size);
@@ -15,11 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     TC_FUZZ_CHECK(mesh.error().message.rfind("fuzz.obj", 0) == 0);
     return 0;
   }
-  TC_FUZZ_CHECK(mesh->node_ids.size() == static_cast<std::size_t>(mesh->num_nodes()));
-  TC_FUZZ_CHECK(mesh->num_triangles() > 0);
-  const tc::SurfaceValidationReport report = tc::validate_surface(*mesh);
-  TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
-  TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+  const tc::SurfaceValidationReport report = tc::fuzz::check_read_surface(*mesh);
   if (!report.structurally_invalid()) {
     const tc::SurfaceEdges edges = tc::build_surface_edges(mesh->triangles);
     const tc::SurfaceStats stats = tc::compute_surface_stats(*mesh, edges, report);

@@ -6,6 +6,7 @@
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/validate.hpp"
 #include "fuzz_input.hpp"
+#include "read_checks.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text = tc::fuzz::as_text(data, size);
@@ -14,10 +15,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view ele_text =
       split == std::string_view::npos ? std::string_view() : text.substr(split + 1);
   if (auto mesh = tc::read_tetgen_buffers(node_text, ele_text, "fuzz")) {
-    TC_FUZZ_CHECK(mesh->node_ids.size() == static_cast<std::size_t>(mesh->num_nodes()));
-    const tc::ValidationReport report = tc::validate_mesh(*mesh);
-    TC_FUZZ_CHECK(report.index_out_of_range.count == 0);
-    TC_FUZZ_CHECK(report.nonfinite_node.count == 0);
+    tc::fuzz::check_read_mesh(*mesh);
   } else {
     TC_FUZZ_CHECK(!mesh.error().message.empty());
   }
