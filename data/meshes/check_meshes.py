@@ -62,6 +62,12 @@ class MeshError(Exception):
     pass
 
 
+def edge_and_box_fields(lengths, lo, hi):
+    """The report's edge-length statistics and bounding box."""
+    return {"mean_edge": sum(lengths) / len(lengths), "min_edge": min(lengths),
+            "max_edge": max(lengths), "lo": lo, "hi": hi}
+
+
 def read_msh41(path):
     """Return (nodes: dict tag -> (x, y, z), elements: dict type -> list of node-tag tuples)."""
     with open(path, "r") as f:
@@ -325,11 +331,7 @@ def check_3d(name, nodes, tets, surface_tris, expected_chi, expected_z_levels,
         "volume": total_vol,
         "min_vol": min_vol,
         "edges": len(edges),
-        "mean_edge": sum(lengths) / len(lengths),
-        "min_edge": min(lengths),
-        "max_edge": max(lengths),
-        "lo": lo,
-        "hi": hi,
+        **edge_and_box_fields(lengths, lo, hi),
         "failures": failures,
     }
 
@@ -403,11 +405,7 @@ def check_2d(name, nodes, tris, expected_chi):
         "volume": area,
         "min_vol": None,
         "edges": len(edge_count),
-        "mean_edge": sum(lengths) / len(lengths),
-        "min_edge": min(lengths),
-        "max_edge": max(lengths),
-        "lo": lo,
-        "hi": hi,
+        **edge_and_box_fields(lengths, lo, hi),
         "failures": failures,
     }
 

@@ -18,6 +18,8 @@ import subprocess
 import sys
 import tempfile
 
+from mesh_gen import cube_tets, write_tetgen
+
 CELL = 0.005
 NX, NY, NZ = 20, 4, 6  # cubes along x, y, z
 
@@ -28,9 +30,6 @@ def in_slot(i, k):
 
 
 def build():
-    # The 6 tets of a cube around its diagonal from corner 0 to corner 7 (corner c at
-    # (c & 1, c >> 1 & 1, c >> 2 & 1)); each path 0 -> a -> b -> 7 is one tet.
-    paths = [(1, 3), (1, 5), (2, 3), (2, 6), (4, 5), (4, 6)]
     node_of = {}
     nodes = []
     tets = []
@@ -48,17 +47,7 @@ def build():
                 if in_slot(i, k):
                     continue
                 corner = [node(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)) for c in range(8)]
-                for a, b in paths:
-                    t = [corner[0], corner[a], corner[b], corner[7]]
-                    # Orientation: positive signed volume.
-                    p = [nodes[v] for v in t]
-                    e = [[p[m][d] - p[0][d] for d in range(3)] for m in (1, 2, 3)]
-                    det = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-                           e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-                           e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
-                    if det < 0:
-                        t[1], t[2] = t[2], t[1]
-                    tets.append(t)
+                tets += cube_tets(corner, nodes)
     return nodes, tets
 
 
@@ -67,14 +56,7 @@ def main():
     nodes, tets = build()
     with tempfile.TemporaryDirectory() as tmp:
         stem = os.path.join(tmp, "fold_u")
-        with open(stem + ".node", "w") as f:
-            f.write(f"{len(nodes)} 3 0 0\n")
-            for n, (x, y, z) in enumerate(nodes, start=1):
-                f.write(f"{n} {x:.17g} {y:.17g} {z:.17g}\n")
-        with open(stem + ".ele", "w") as f:
-            f.write(f"{len(tets)} 4 0\n")
-            for n, t in enumerate(tets, start=1):
-                f.write(f"{n} {t[0] + 1} {t[1] + 1} {t[2] + 1} {t[3] + 1}\n")
+        write_tetgen(stem, nodes, tets)
         subprocess.run([tool, "mesh", "convert", stem + ".node", "fold_u.msh"], check=True)
     print(f"fold_u.msh: {len(nodes)} nodes, {len(tets)} tets")
 

@@ -12,6 +12,8 @@ Run from this folder: python3 make_probe.py
 import math
 import struct
 
+from mesh_gen import normal
+
 RADIUS = 0.03
 TOP = 0.25
 AROUND = 24
@@ -52,14 +54,6 @@ def build():
     for j in range(AROUND):  # the flat top, normal +z
         tris.append((top_centre, last + j, last + (j + 1) % AROUND))
     return points, tris
-
-
-def normal(a, b, c):
-    u = [b[k] - a[k] for k in range(3)]
-    v = [c[k] - a[k] for k in range(3)]
-    n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-    length = math.sqrt(sum(x * x for x in n)) or 1.0
-    return [x / length for x in n]
 
 
 def main():

@@ -9,9 +9,14 @@
 
 Deterministic. Run from this folder: python3 make_self_overlap.py
 """
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "data" / "meshes"))
+from mesh_gen import cube_tets, write_tetgen  # noqa: E402
+
 N = 2
 SHIFT = (0.5, 0.1, 0.2)
-PATHS = [(1, 3), (1, 5), (2, 3), (2, 6), (4, 5), (4, 6)]
 
 
 def cube():
@@ -22,36 +27,16 @@ def cube():
         for j in range(N):
             for i in range(N):
                 c = [index(i + (q & 1), j + (q >> 1 & 1), k + (q >> 2 & 1)) for q in range(8)]
-                for a, b in PATHS:
-                    t = [c[0], c[a], c[b], c[7]]
-                    p = [nodes[v] for v in t]
-                    e = [[p[m][d] - p[0][d] for d in range(3)] for m in (1, 2, 3)]
-                    det = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
-                           e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-                           e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
-                    if det < 0:
-                        t[1], t[2] = t[2], t[1]
-                    tets.append(t)
+                tets += cube_tets(c, nodes)
     return nodes, tets
-
-
-def write(stem, nodes, tets):
-    with open(stem + ".node", "w") as f:
-        f.write(f"{len(nodes)} 3 0 0\n")
-        for n, p in enumerate(nodes, start=1):
-            f.write(f"{n} {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n")
-    with open(stem + ".ele", "w") as f:
-        f.write(f"{len(tets)} 4 0\n")
-        for n, t in enumerate(tets, start=1):
-            f.write(f"{n} {t[0] + 1} {t[1] + 1} {t[2] + 1} {t[3] + 1}\n")
 
 
 def main():
     nodes, tets = cube()
-    write("cube2", nodes, tets)
+    write_tetgen("cube2", nodes, tets)
     moved = [(x + SHIFT[0], y + SHIFT[1], z + SHIFT[2]) for x, y, z in nodes]
     n = len(nodes)
-    write("self_overlap", nodes + moved, tets + [[v + n for v in t] for t in tets])
+    write_tetgen("self_overlap", nodes + moved, tets + [[v + n for v in t] for t in tets])
 
 
 if __name__ == "__main__":

@@ -3,22 +3,18 @@
 
 Run from this folder: python3 make_surfaces.py. Deterministic: the same bytes each time.
 """
-import math
 import struct
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "data" / "meshes"))
+from mesh_gen import normal  # noqa: E402
 
 # The unit cube as 12 triangles with outward right-hand normals; node i at
 # (i & 1, i >> 1 & 1, i >> 2 & 1).
 CUBE_POINTS = [(i & 1, (i >> 1) & 1, (i >> 2) & 1) for i in range(8)]
 CUBE_QUADS = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
 CUBE_TRIS = [t for q in CUBE_QUADS for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
-
-
-def normal(a, b, c):
-    u = [b[k] - a[k] for k in range(3)]
-    v = [c[k] - a[k] for k in range(3)]
-    n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-    length = math.sqrt(sum(x * x for x in n)) or 1.0
-    return [x / length for x in n]
 
 
 def ascii_stl(points, tris, name="cube"):
