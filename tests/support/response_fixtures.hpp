@@ -20,8 +20,18 @@
 #include "core/mesh/tet_mesh.hpp"
 #include "core/mesh/topology.hpp"
 #include "core/response/penalty.hpp"
+#include "test_meshes.hpp"
 
 namespace tc::test {
+
+/// Options that evaluate depth by the paper's interpolation of the nodes' depth values: the
+/// tests of the paper's formulas write depth fields by hand (half-spaces, linear fields),
+/// which the nearest-face evaluation (the default) does not read.
+inline ResponseOptions paper() {
+  ResponseOptions o;
+  o.evaluation = DepthEvaluation::kInterpolate;
+  return o;
+}
 
 /// One object of a response test: mesh, topology, depth values, optional velocities.
 struct TestObject {
@@ -59,18 +69,6 @@ struct TestObject {
       depth[static_cast<std::size_t>(i)] = f(Eigen::Vector3d(mesh.positions.col(i)));
   }
 };
-
-/// A mesh from points and tets as given (no reorientation: tests control the order).
-inline TetMesh mesh_from(const std::vector<Eigen::Vector3d>& points, std::vector<Tet> tets) {
-  TetMesh mesh;
-  mesh.positions.resize(3, static_cast<Eigen::Index>(points.size()));
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    mesh.positions.col(static_cast<Eigen::Index>(i)) = points[i];
-    mesh.node_ids.push_back(static_cast<std::int64_t>(i) + 1);
-  }
-  mesh.tets = std::move(tets);
-  return mesh;
-}
 
 /// Distance from x to the boundary of the box [lo, hi] (x inside), metres.
 inline double box_depth(const Eigen::Vector3d& x, const Eigen::Vector3d& lo,

@@ -1,8 +1,10 @@
 #include "test_meshes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
+#include "core/depth/point_simplex_distance.hpp"
 #include "core/mesh/geometry.hpp"
 #include "core/mesh/topology.hpp"
 
@@ -10,13 +12,7 @@ namespace tc::test {
 namespace {
 
 TetMesh from_points(const std::vector<Eigen::Vector3d>& points, std::vector<Tet> tets) {
-  TetMesh mesh;
-  mesh.positions.resize(3, static_cast<Eigen::Index>(points.size()));
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    mesh.positions.col(static_cast<Eigen::Index>(i)) = points[i];
-    mesh.node_ids.push_back(static_cast<std::int64_t>(i) + 1);
-  }
-  mesh.tets = std::move(tets);
+  TetMesh mesh = mesh_from(points, std::move(tets));
   // Orient every tet positively so the fixtures match the Gmsh convention.
   for (Tet& t : mesh.tets)
     if (signed_volume(mesh.positions, t) < 0.0) std::swap(t[2], t[3]);
@@ -32,6 +28,28 @@ std::vector<Eigen::Vector3d> cube_corners(double s) {
 }
 
 }  // namespace
+
+double brute_force_sq_distance_to_boundary(const TetMesh& m, const Topology& topology,
+                                           const Eigen::Vector3d& p) {
+  double best = INFINITY;
+  for (const auto& f : topology.boundary_faces)
+    best = std::min(best, point_triangle_distance(p, Eigen::Vector3d(m.positions.col(f[0])),
+                                                  Eigen::Vector3d(m.positions.col(f[1])),
+                                                  Eigen::Vector3d(m.positions.col(f[2])))
+                              .sq_dist);
+  return best;
+}
+
+TetMesh mesh_from(const std::vector<Eigen::Vector3d>& points, std::vector<Tet> tets) {
+  TetMesh mesh;
+  mesh.positions.resize(3, static_cast<Eigen::Index>(points.size()));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    mesh.positions.col(static_cast<Eigen::Index>(i)) = points[i];
+    mesh.node_ids.push_back(static_cast<std::int64_t>(i) + 1);
+  }
+  mesh.tets = std::move(tets);
+  return mesh;
+}
 
 TetMesh single_tet() {
   return from_points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{0, 1, 2, 3}});

@@ -7,8 +7,18 @@
 #include "core/io/mesh_io.hpp"
 #include "core/mesh/surface_mesh.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "core/mesh/topology.hpp"
 
 namespace tc::test {
+
+/// A mesh from points and tets as given (no reorientation: tests control the order);
+/// node ids 1..n.
+TetMesh mesh_from(const std::vector<Eigen::Vector3d>& points, std::vector<Tet> tets);
+
+/// The squared distance from `p` to the nearest boundary face of `topology` (of mesh
+/// `m`), face by face: the brute-force reference of the BVHs and distance tests.
+double brute_force_sq_distance_to_boundary(const TetMesh& m, const Topology& topology,
+                                           const Eigen::Vector3d& p);
 
 /// The unit tet (0,0,0), (1,0,0), (0,1,0), (0,0,1), positively oriented.
 TetMesh single_tet();

@@ -29,12 +29,7 @@ TEST_P(BvhRandom, NearestTriangleEqualsBruteForce) {
     Eigen::Vector3d p(u(rng), u(rng), u(rng) * 0.4);
     if (trial % 10 == 0)
       p = m.positions.col(topo.boundary_nodes[rng() % topo.boundary_nodes.size()]);
-    double best = INFINITY;
-    for (const auto& f : topo.boundary_faces)
-      best = std::min(best, point_triangle_distance(p, Eigen::Vector3d(m.positions.col(f[0])),
-                                                    Eigen::Vector3d(m.positions.col(f[1])),
-                                                    Eigen::Vector3d(m.positions.col(f[2])))
-                                .sq_dist);
+    const double best = test::brute_force_sq_distance_to_boundary(m, topo, p);
     const auto hit = bvh.nearest(p);
     EXPECT_EQ(hit.sq_dist, best);
     ASSERT_GE(hit.simplex, 0);

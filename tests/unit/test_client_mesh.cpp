@@ -57,6 +57,13 @@ client::MeshError thrown_by(Read read) {
   return client::MeshError(client::StatusCode::kInternal, "no error");
 }
 
+/// The client's mesh has the core reader's node ids and positions.
+template <typename CoreMesh>
+void expect_same_nodes(const client::Mesh& mesh, const CoreMesh& core) {
+  EXPECT_EQ(mesh.node_ids, core.node_ids);
+  expect_same_positions(mesh.rest_positions, core.positions);
+}
+
 client::StatusCode status_of(ErrorCode code) {
   return static_cast<client::StatusCode>(static_cast<int>(code) + 1);
 }
@@ -68,8 +75,7 @@ TEST_P(ClientReadMesh, GivesTheCoreReadersMesh) {
   auto core = read_mesh(path);
   ASSERT_TRUE(core.has_value()) << core.error().message;
   const client::Mesh mesh = client::read_mesh(path);
-  EXPECT_EQ(mesh.node_ids, core->node_ids);
-  expect_same_positions(mesh.rest_positions, core->positions);
+  expect_same_nodes(mesh, *core);
   EXPECT_EQ(mesh.tets, flat(core->tets));
   EXPECT_TRUE(mesh.triangles.empty());
   EXPECT_GT(mesh.tets.size(), 0u);
@@ -101,8 +107,7 @@ TEST_P(ClientReadSurface, GivesTheCoreReadersSurface) {
   auto core = read_surface(GetParam());
   ASSERT_TRUE(core.has_value()) << core.error().message;
   const client::Mesh mesh = client::read_surface(GetParam());
-  EXPECT_EQ(mesh.node_ids, core->node_ids);
-  expect_same_positions(mesh.rest_positions, core->positions);
+  expect_same_nodes(mesh, *core);
   EXPECT_EQ(mesh.triangles, flat(core->triangles));
   EXPECT_TRUE(mesh.tets.empty());
   EXPECT_GT(mesh.triangles.size(), 0u);

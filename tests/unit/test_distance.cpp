@@ -109,13 +109,8 @@ TEST_P(DepthExactBruteForce, BvhEqualsMinimumOverAllTriangles) {
   jitter_interior(m, topo, 0.05, GetParam());
   const auto exact = exact_of(m, topo);
   for (Index i = 0; i < m.num_nodes(); ++i) {
-    double best = kInf;
-    for (const auto& f : topo.boundary_faces) {
-      const Eigen::Vector3d a = m.positions.col(f[0]), b = m.positions.col(f[1]),
-                            c = m.positions.col(f[2]);
-      best = std::min(
-          best, point_triangle_distance(Eigen::Vector3d(m.positions.col(i)), a, b, c).sq_dist);
-    }
+    const double best =
+        test::brute_force_sq_distance_to_boundary(m, topo, Eigen::Vector3d(m.positions.col(i)));
     EXPECT_EQ(exact[i], std::sqrt(best)) << "node " << i;
   }
 }

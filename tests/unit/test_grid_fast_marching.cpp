@@ -36,12 +36,7 @@ TEST(GridFastMarching, SeedsInTheBandAreExactDistances) {
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
         const Eigen::Vector3d x = fm.origin() + Eigen::Vector3d(i, j, k).cwiseProduct(fm.spacing());
-        double best = INFINITY;
-        for (const auto& f : topo.boundary_faces)
-          best = std::min(best, point_triangle_distance(x, Eigen::Vector3d(m.positions.col(f[0])),
-                                                        Eigen::Vector3d(m.positions.col(f[1])),
-                                                        Eigen::Vector3d(m.positions.col(f[2])))
-                                    .sq_dist);
+        const double best = test::brute_force_sq_distance_to_boundary(m, topo, x);
         const double v = fm.grid()[static_cast<std::size_t>(i + n * (j + n * k))];
         if (std::sqrt(best) <= band) {
           EXPECT_NEAR(v, std::sqrt(best), 1e-12);
@@ -54,24 +49,27 @@ TEST(GridFastMarching, SeedsInTheBandAreExactDistances) {
   EXPECT_GT(checked, 100u);
 }
 
+/// The grid's mean error against the exact depth at a coarse and a fine resolution: the
+/// fine one at most half the coarse one and below `fine_limit`.
+template <typename Mesh, typename Topo>
+void expect_error_shrinks(const Mesh& m, const Topo& topo, int coarse_cells, int fine_cells,
+                          double fine_limit) {
+  const auto exact = *compute_depth_exact(m, topo);
+  const double coarse = mean_abs_error(*compute_depth_grid_fm(m, topo, coarse_cells), exact);
+  const double fine = mean_abs_error(*compute_depth_grid_fm(m, topo, fine_cells), exact);
+  EXPECT_LT(fine, 0.5 * coarse);
+  EXPECT_LT(fine, fine_limit);
+}
+
 TEST(GridFastMarching, ErrorShrinksWithResolution3d) {
   const TetMesh m = test::ball_mesh(8, 1.0);
-  const Topology topo = build_topology(m.tets, m.num_nodes());
-  const auto exact = *compute_depth_exact(m, topo);
-  const double coarse = mean_abs_error(*compute_depth_grid_fm(m, topo, 12), exact);
-  const double fine = mean_abs_error(*compute_depth_grid_fm(m, topo, 48), exact);
-  EXPECT_LT(fine, 0.5 * coarse);
-  EXPECT_LT(fine, 0.02);
+  expect_error_shrinks(m, build_topology(m.tets, m.num_nodes()), 12, 48, 0.02);
 }
 
 TEST(GridFastMarching, ErrorShrinksWithResolution2d) {
   const TriMesh2 m = test::disc_mesh_2d(20, 1.0);
-  const Topology2 topo = build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols()));
-  const auto exact = *compute_depth_exact(m, topo);
-  const double coarse = mean_abs_error(*compute_depth_grid_fm(m, topo, 20), exact);
-  const double fine = mean_abs_error(*compute_depth_grid_fm(m, topo, 100), exact);
-  EXPECT_LT(fine, 0.5 * coarse);
-  EXPECT_LT(fine, 0.01);
+  expect_error_shrinks(m, build_topology_2d(m.triangles, static_cast<Index>(m.positions.cols())),
+                       20, 100, 0.01);
 }
 
 TEST(GridFastMarching, SlabDepthIsExactAwayFromTheSides) {

@@ -17,16 +17,11 @@
 namespace tc {
 namespace {
 
-/// Most tests here check the paper's interpolation formulas on depth fields written by
-/// hand; the nearest-face evaluation (the default) ignores those values.
-ResponseOptions paper() {
-  ResponseOptions o;
-  o.evaluation = DepthEvaluation::kInterpolate;
-  return o;
-}
-
+// Most tests here check the paper's interpolation formulas on depth fields written by
+// hand: test::paper().
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
+using test::paper;
 using test::TestObject;
 
 /// One contact: an intruder tet X (node 0, or edge (0, 1) = edge index 0, is the

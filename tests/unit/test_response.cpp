@@ -19,16 +19,11 @@
 namespace tc {
 namespace {
 
-/// The tests of the paper's formulas use depth fields written by hand (half-spaces,
-/// linear fields), which only the interpolating evaluation reads.
-ResponseOptions paper() {
-  ResponseOptions o;
-  o.evaluation = DepthEvaluation::kInterpolate;
-  return o;
-}
-
+// The tests of the paper's formulas use depth fields written by hand (half-spaces,
+// linear fields): test::paper().
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
+using test::paper;
 using test::TestObject;
 
 Vec3 total_force(const ObjectForces& f) {
@@ -269,19 +264,20 @@ TEST(AutoRule, ThresholdOnEdgeLengthOverContactExtent) {
 
 TEST(AutoRule, CoarseBoxOnFineBoxUsesSegmentsFineBoxUsesPoints) {
   ResponseOptions o;  // kAuto
-  const BoxPair coarse = box_pair(0.05, 0.21, 1);
-  const PairContacts cc = test::brute_force_contacts(coarse.a, coarse.b);
-  const ContactDensity dc =
-      measure_contact_density(coarse.a.view(), cc.marked_a, coarse.b.view(), cc.marked_b);
+  // The contact density of box_pair(0.05, 0.21, cells_a) and the kind the response used.
+  const auto density_and_kind = [&](int cells_a) {
+    const BoxPair p = box_pair(0.05, 0.21, cells_a);
+    const PairContacts c = test::brute_force_contacts(p.a, p.b);
+    const ContactDensity d =
+        measure_contact_density(p.a.view(), c.marked_a, p.b.view(), c.marked_b);
+    return std::make_pair(d, respond(p.a, p.b, c, o).used_a_in_b);
+  };
+  const auto [dc, coarse_kind] = density_and_kind(1);
   EXPECT_GT(dc.rms_edge, o.auto_threshold * dc.contact_extent);
-  EXPECT_EQ(respond(coarse.a, coarse.b, cc, o).used_a_in_b, ResponseKind::kSegment);
-
-  const BoxPair fine = box_pair(0.05, 0.21, 7);
-  const PairContacts cf = test::brute_force_contacts(fine.a, fine.b);
-  const ContactDensity df =
-      measure_contact_density(fine.a.view(), cf.marked_a, fine.b.view(), cf.marked_b);
+  EXPECT_EQ(coarse_kind, ResponseKind::kSegment);
+  const auto [df, fine_kind] = density_and_kind(7);
   EXPECT_LT(df.rms_edge, o.auto_threshold * df.contact_extent);
-  EXPECT_EQ(respond(fine.a, fine.b, cf, o).used_a_in_b, ResponseKind::kPoint);
+  EXPECT_EQ(fine_kind, ResponseKind::kPoint);
   // The measured extent is the contact patch, not the objects: about the diagonal of
   // A's footprint.
   EXPECT_NEAR(df.contact_extent, std::sqrt(2.0) * 0.42, 0.1);
