@@ -435,6 +435,29 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     if (stats != nullptr) *stats = st;
     return;
   }
+  find_candidates(a, b, start, st);
+  st.candidates = candidates_.size();
+  const auto broad_end = Clock::now();
+  st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();
+
+  index_candidate_tets(a, b);
+  narrow_phase(a, b, out);
+  st.overlapping = out.overlapping.size();
+  mark_tets(out);
+
+  const auto intrusion_start = Clock::now();
+  find_intrusions(a, b, out, need_edges);
+  clear_slots(geom_a_);
+  clear_slots(geom_b_);
+  st.intrusion_ms = ms_since(intrusion_start);
+
+  st.narrow_ms = ms_since(broad_end);
+  st.total_ms = ms_since(start);
+  if (stats != nullptr) *stats = st;
+}
+
+void Detector::find_candidates(CollisionBody& a, CollisionBody& b, Clock::time_point start,
+                               DetectStats& st) {
   const BroadPhaseKind kind = options_.broad_phase;
   // Only the tets of the clusters that meet the overlap box of the two objects get
   // bounds and the filter below: a small tool in a large organ costs what the part of
@@ -467,42 +490,49 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   filter_tets(b, near_b_, cull, subset_b_, boxes_b_);
   st.tets_a_in_box = subset_a_.size();
   st.tets_b_in_box = subset_b_.size();
-  const double rel = relative_tolerance();
 
   const bool from_kept = keep && candidates_from_kept(kept_pairs, a, b, cull, st);
-  if (!from_kept) {
-    if (full_tree && keep) b.prepare(kind);  // (its bounds were made near the contact only)
-    BvhSide bvh;
-    if (full_tree) {
-      if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
-      for (std::size_t k = 0; k < subset_b_.size(); ++k)
-        box_slot_[subset_b_[k]] = static_cast<Index>(k);
-      bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
-    } else if (kind == BroadPhaseKind::kBvh) {
-      // A local tree. Any tree over these boxes answers the same (a refit makes every
-      // node box exact); only its shape, and so the query cost, depends on where the
-      // boxes were when it was built: rebuilt when the tets change, and every
-      // kLocalTreeRefits frames.
-      if (local_tree_body_ == &b && local_tree_refits_ < kLocalTreeRefits &&
-          local_tree_tets_ == subset_b_) {
-        local_tree_.refit(boxes_b_);
-        ++local_tree_refits_;
-        st.local_tree_refitted = true;
-      } else {
-        local_tree_.build(boxes_b_);
-        local_tree_body_ = &b;
-        local_tree_tets_ = subset_b_;
-        local_tree_refits_ = 0;
-      }
-      bvh.tree = &local_tree_;
-      bvh.tet_boxes = boxes_b_;
-      bvh.over_side = true;
+  if (!from_kept) candidates_from_broad_phase(a, b, full_tree, keep, st);
+  drop_left_out(a, b);
+}
+
+void Detector::candidates_from_broad_phase(const CollisionBody& a, CollisionBody& b, bool full_tree,
+                                           bool keep, DetectStats& st) {
+  const BroadPhaseKind kind = options_.broad_phase;
+  if (full_tree && keep) b.prepare(kind);  // (its bounds were made near the contact only)
+  BvhSide bvh;
+  if (full_tree) {
+    if (box_slot_.size() < b.tets_.size()) box_slot_.resize(b.tets_.size(), -1);
+    for (std::size_t k = 0; k < subset_b_.size(); ++k)
+      box_slot_[subset_b_[k]] = static_cast<Index>(k);
+    bvh = {&b.tree_, b.bounds_.boxes, box_slot_};
+  } else if (kind == BroadPhaseKind::kBvh) {
+    // A local tree. Any tree over these boxes answers the same (a refit makes every
+    // node box exact); only its shape, and so the query cost, depends on where the
+    // boxes were when it was built: rebuilt when the tets change, and every
+    // kLocalTreeRefits frames.
+    if (local_tree_body_ == &b && local_tree_refits_ < kLocalTreeRefits &&
+        local_tree_tets_ == subset_b_) {
+      local_tree_.refit(boxes_b_);
+      ++local_tree_refits_;
+      st.local_tree_refitted = true;
+    } else {
+      local_tree_.build(boxes_b_);
+      local_tree_body_ = &b;
+      local_tree_tets_ = subset_b_;
+      local_tree_refits_ = 0;
     }
-    broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
-                      {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
-    if (full_tree)
-      for (const Index t : subset_b_) box_slot_[t] = -1;
+    bvh.tree = &local_tree_;
+    bvh.tet_boxes = boxes_b_;
+    bvh.over_side = true;
   }
+  broad_.find_pairs(kind, {subset_a_, boxes_a_, a.bounds_.spheres},
+                    {subset_b_, boxes_b_, b.bounds_.spheres}, bvh, candidates_);
+  if (full_tree)
+    for (const Index t : subset_b_) box_slot_[t] = -1;
+}
+
+void Detector::drop_left_out(const CollisionBody& a, const CollisionBody& b) {
   if (!a.left_out_.empty() || !b.left_out_.empty()) {
     // Tets left out of contact (set_left_out_tets()): no pair with them is tested, so they
     // are never marked and never host an intruding node or edge. The kept pairs keep
@@ -514,11 +544,9 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
       return out_of(a.left_out_, p.tet_a) || out_of(b.left_out_, p.tet_b);
     });
   }
-  st.candidates = candidates_.size();
-  const auto broad_end = Clock::now();
-  st.broad_ms = std::chrono::duration<double, std::milli>(broad_end - start).count();
+}
 
-  // Geometry of the tets in candidate pairs, once per tet.
+void Detector::index_candidate_tets(const CollisionBody& a, const CollisionBody& b) {
   geom_a_.tets.clear();
   for (const TetPair& p : candidates_)
     if (geom_a_.tets.empty() || geom_a_.tets.back() != p.tet_a) geom_a_.tets.push_back(p.tet_a);
@@ -539,58 +567,59 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
     build_slots(*b.positions_, b.tets_, geom_b_.tets, geom_b_.tets.size(), same, copy.geom[1]);
     copy.all_built = geometry_stamp_;
   }
+}
 
-  // Narrow phase: exact overlap of every candidate, in candidate order.
-  {
-    const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
-    detail::reset_parts(pair_parts_, chunks);
-    detail::for_chunks(
-        candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-          // This thread's geometry of the chunk's tets, built now where it has not yet
-          // been in this call (A's tets come in order, B's scattered).
-          auto& copy = thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size());
-          const std::uint64_t stamp = geometry_stamp_;
-          const auto gather = [&](std::size_t w, const Geometry& g, auto tet_of) {
-            copy.missing.clear();
-            if (copy.all_built == stamp) return;  // the calling thread of a one-thread call
-            for (std::size_t i = begin; i < end; ++i) {
-              const Index slot = g.slot[tet_of(candidates_[i])];
-              if (copy.claim(w, slot, stamp)) copy.missing.push_back(slot);
-            }
-          };
-          const auto missing = [&](std::size_t k) {
-            return static_cast<std::size_t>(copy.missing[k]);
-          };
-          gather(0, geom_a_, [](const TetPair& p) { return p.tet_a; });
-          build_slots(*a.positions_, a.tets_, geom_a_.tets, copy.missing.size(), missing,
-                      copy.geom[0]);
-          gather(1, geom_b_, [](const TetPair& p) { return p.tet_b; });
-          build_slots(*b.positions_, b.tets_, geom_b_.tets, copy.missing.size(), missing,
-                      copy.geom[1]);
-          std::array<GeometryPair, kNarrowChunk> pairs;
-          std::array<bool, kNarrowChunk> hits;
-          const std::size_t n = end - begin;
-          for (std::size_t i = 0; i < n; ++i) {
-            const TetPair& p = candidates_[begin + i];
-            pairs[i] = {&copy.geom[0][static_cast<std::size_t>(geom_a_.slot[p.tet_a])],
-                        &copy.geom[1][static_cast<std::size_t>(geom_b_.slot[p.tet_b])]};
+void Detector::narrow_phase(const CollisionBody& a, const CollisionBody& b, PairContacts& out) {
+  const double rel = relative_tolerance();
+  const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
+  detail::reset_parts(pair_parts_, chunks);
+  detail::for_chunks(
+      candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+        // This thread's geometry of the chunk's tets, built now where it has not yet
+        // been in this call (A's tets come in order, B's scattered).
+        auto& copy = thread_geometry_->local(geom_a_.tets.size(), geom_b_.tets.size());
+        const std::uint64_t stamp = geometry_stamp_;
+        const auto gather = [&](std::size_t w, const Geometry& g, auto tet_of) {
+          copy.missing.clear();
+          if (copy.all_built == stamp) return;  // the calling thread of a one-thread call
+          for (std::size_t i = begin; i < end; ++i) {
+            const Index slot = g.slot[tet_of(candidates_[i])];
+            if (copy.claim(w, slot, stamp)) copy.missing.push_back(slot);
           }
-          tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
-          // The overlapping ones kept in order, without a branch on each (about half of
-          // the candidates overlap, in no pattern a branch predictor could learn).
-          std::vector<TetPair>& part = pair_parts_[c];
-          std::size_t kept = part.size();
-          part.resize(kept + n);
-          for (std::size_t i = 0; i < n; ++i) {
-            part[kept] = candidates_[begin + i];
-            kept += hits[i] ? 1 : 0;
-          }
-          part.resize(kept);
-        });
-    detail::concat_parts(pair_parts_, chunks, out.overlapping);
-  }
-  st.overlapping = out.overlapping.size();
+        };
+        const auto missing = [&](std::size_t k) {
+          return static_cast<std::size_t>(copy.missing[k]);
+        };
+        gather(0, geom_a_, [](const TetPair& p) { return p.tet_a; });
+        build_slots(*a.positions_, a.tets_, geom_a_.tets, copy.missing.size(), missing,
+                    copy.geom[0]);
+        gather(1, geom_b_, [](const TetPair& p) { return p.tet_b; });
+        build_slots(*b.positions_, b.tets_, geom_b_.tets, copy.missing.size(), missing,
+                    copy.geom[1]);
+        std::array<GeometryPair, kNarrowChunk> pairs;
+        std::array<bool, kNarrowChunk> hits;
+        const std::size_t n = end - begin;
+        for (std::size_t i = 0; i < n; ++i) {
+          const TetPair& p = candidates_[begin + i];
+          pairs[i] = {&copy.geom[0][static_cast<std::size_t>(geom_a_.slot[p.tet_a])],
+                      &copy.geom[1][static_cast<std::size_t>(geom_b_.slot[p.tet_b])]};
+        }
+        tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
+        // The overlapping ones kept in order, without a branch on each (about half of
+        // the candidates overlap, in no pattern a branch predictor could learn).
+        std::vector<TetPair>& part = pair_parts_[c];
+        std::size_t kept = part.size();
+        part.resize(kept + n);
+        for (std::size_t i = 0; i < n; ++i) {
+          part[kept] = candidates_[begin + i];
+          kept += hits[i] ? 1 : 0;
+        }
+        part.resize(kept);
+      });
+  detail::concat_parts(pair_parts_, chunks, out.overlapping);
+}
 
+void Detector::mark_tets(PairContacts& out) {
   // Marked tets and, for each, the tets of the other object it overlaps (as geometry
   // slots, which follow tet order).
   // Both lists are written without a branch on "a new tet": each entry goes to the next
@@ -640,8 +669,10 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   rows_b_.items.resize(num_overlapping);
   for (const TetPair& p : out.overlapping)
     rows_b_.items[counts_[geom_b_.slot[p.tet_b]]++] = geom_a_.slot[p.tet_a];
+}
 
-  const auto intrusion_start = Clock::now();
+void Detector::find_intrusions(const CollisionBody& a, const CollisionBody& b, PairContacts& out,
+                               const EdgeNeed& need_edges) {
   std::array<bool, 2> edges = {options_.intruding_edges, options_.intruding_edges};
   if (options_.intruding_edges && need_edges && !out.overlapping.empty()) edges = need_edges(out);
   if (!out.overlapping.empty() && (options_.intruding_nodes || edges[0] || edges[1])) {
@@ -663,13 +694,6 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
       for (const Index t : marked) row_of_[t] = -1;
     }
   }
-  clear_slots(geom_a_);
-  clear_slots(geom_b_);
-  st.intrusion_ms = ms_since(intrusion_start);
-
-  st.narrow_ms = ms_since(broad_end);
-  st.total_ms = ms_since(start);
-  if (stats != nullptr) *stats = st;
 }
 
 void Detector::collect_features(std::span<const Index> marked, const CollisionBody& x, bool edges) {

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -324,6 +325,33 @@ class Detector {
   /// frame's boxes leave them), into candidates_; false when they cannot serve this call.
   bool candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBody& b, const Aabb& cull,
                             DetectStats& st);
+  // The steps of detect(), in the order it runs them once the object boxes touch.
+  /// Broad phase: the tets of each body near the overlap box of the two objects, their
+  /// bounds (st.bounds_ms: since `start`) and those whose box meets it (subset_a_, subset_b_),
+  /// then the tet pairs whose boxes overlap, from the kept pairs or the broad phase, less
+  /// those with a left-out tet, into candidates_.
+  void find_candidates(CollisionBody& a, CollisionBody& b,
+                       std::chrono::steady_clock::time_point start, DetectStats& st);
+  /// The candidates of options_.broad_phase over subset_a_ and subset_b_, into candidates_:
+  /// for kBvh, B's own tree when `full_tree` (prepared here when `keep` left it unprepared),
+  /// else a local tree over subset_b_.
+  void candidates_from_broad_phase(const CollisionBody& a, CollisionBody& b, bool full_tree,
+                                   bool keep, DetectStats& st);
+  /// Drops the candidates with a tet left out of contact (set_left_out_tets()).
+  void drop_left_out(const CollisionBody& a, const CollisionBody& b);
+  /// geom_a_ and geom_b_: the tets in candidate pairs, once per tet, indexed (index_tets());
+  /// on one thread their geometry is built now, in slot order.
+  void index_candidate_tets(const CollisionBody& a, const CollisionBody& b);
+  /// Narrow phase: the exact overlap of every candidate, in candidate order; the overlapping
+  /// ones into out.overlapping.
+  void narrow_phase(const CollisionBody& a, const CollisionBody& b, PairContacts& out);
+  /// out.marked_a and out.marked_b from out.overlapping, and for each marked tet its row of
+  /// the other body's tets it overlaps (rows_a_, rows_b_).
+  void mark_tets(PairContacts& out);
+  /// The feature scans: the intruding nodes and edges of each body in the other, as the
+  /// options and `need_edges` ask, into `out`.
+  void find_intrusions(const CollisionBody& a, const CollisionBody& b, PairContacts& out,
+                       const EdgeNeed& need_edges);
   /// The tets of `body` whose cluster box meets `region` (every tet without the cluster
   /// cull), into `list`.
   void gather_near(CollisionBody& body, const Aabb& region, std::vector<Index>& list) const;
