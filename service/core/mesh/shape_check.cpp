@@ -42,7 +42,8 @@ constexpr std::size_t kSamplePeriod = 512;
 /// More than one node in this many moved: check every tet (a rotation, a large step).
 constexpr std::size_t kBusyFraction = 4;
 
-/// States a fitted turn rests after one that did no better than the shift (ShapeCheck::check).
+/// States a fitted turn rests after one that did no better than the shift
+/// (ShapeCheck::keep_fit_if_better).
 constexpr std::size_t kFitPause = 8;
 
 /// Nodes per step of detail::motion_pass().
@@ -474,6 +475,28 @@ ValidationReport ShapeCheck::check_all(const Positions& positions, bool rebuild_
   return report;
 }
 
+namespace {
+
+/// Calls visit(i) for each node i of the sample of an object of n nodes that check() takes
+/// its shift from: every node, or above kSampleAbove nodes runs of kSampleRun nodes, one
+/// every kSamplePeriod nodes.
+template <typename Visit>
+void visit_sample(std::size_t n, const Visit& visit) {
+  const bool sampled = n > kSampleAbove;
+  const std::size_t run = sampled ? kSampleRun : 1, period = sampled ? kSamplePeriod : 1;
+  for (std::size_t b = 0; b < n; b += period)
+    for (std::size_t i = b; i < std::min(b + run, n); ++i) visit(i);
+}
+
+}  // namespace
+
+/// The motion check() compares a state's nodes with their references after: the shift
+/// (`rigid` turns by the identity), or, when `turned`, a turn and a shift (fit_rigid()).
+struct ShapeCheck::Motion {
+  Rigid rigid;
+  bool turned = false;
+};
+
 ValidationReport ShapeCheck::check(const Positions& positions) {
   if (positions.cols() != num_nodes_)
     throw std::invalid_argument("ShapeCheck: " + std::to_string(positions.cols()) +
@@ -486,17 +509,11 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   // one shift, the mean displacement of the nodes (of a sample on a large object: any
   // common shift is as sound).
   const std::size_t n = static_cast<std::size_t>(num_nodes_);
-  const bool sampled = n > kSampleAbove;
-  const std::size_t run = sampled ? kSampleRun : 1, period = sampled ? kSamplePeriod : 1;
   const double* x = positions.data();
   const double* r = reference_.data();
-  const auto visit_sample = [&](const auto& visit) {
-    for (std::size_t b = 0; b < n; b += period)
-      for (std::size_t i = b; i < std::min(b + run, n); ++i) visit(i);
-  };
   double sx = 0.0, sy = 0.0, sz = 0.0;
   std::size_t samples = 0;
-  visit_sample([&](std::size_t i) {
+  visit_sample(n, [&](std::size_t i) {
     sx += x[3 * i] - r[3 * i];
     sy += x[3 * i + 1] - r[3 * i + 1];
     sz += x[3 * i + 2] - r[3 * i + 2];
@@ -506,153 +523,179 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   const double shift[3] = {sx / count, sy / count, sz / count};
   if (!(std::isfinite(shift[0]) && std::isfinite(shift[1]) && std::isfinite(shift[2])))
     return check_all(positions, false);  // a NaN or infinite coordinate: the full report
-  // The motion the nodes are compared after: the shift, or a turn and a shift (fit_rigid()).
-  Rigid motion{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}, 0.0};
-  bool turned = false;
-  // The motion is used only if its rounding fits the room kept off the radii (budget_,
-  // rounding_slack()); a shift too far from the reference is fitted as a rigid motion
-  // (about the centroids, whose rounding does not grow with the shift).
-  const double rcap = std::sqrt(rcap2_);
-  const bool shift_fits = rounding_slack(shift_error(shift, rcap), rcap) <= budget_;
-  // The fit takes the sampled nodes that are in a tet: a node in none does not count, however
-  // it moves or wherever it is parked (far away, it would drag the pivot there).
-  const auto visit_fit = [&](const auto& visit) {
-    visit_sample([&](std::size_t i) {
-      if (radius2_[i] != kNoTetRadius2) visit(i);
-    });
-  };
-  const auto fit = [&] {
-    auto m = fit_rigid(x, r, visit_fit);
-    const auto fits = [&](const Rigid& f) {
-      return rounding_slack(turn_error(f.defect, reach(f.turn + 9), rcap), rcap) <= budget_;
-    };
-    if (m && !fits(*m)) m.reset();
-    if (m) {
-      // Fitted again to the nodes the first fit leaves within their radii: a few nodes
-      // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
-      // beyond their radii too. (None beyond, as when the object only turned: the same
-      // nodes, the same fit.)
-      outside_.clear();
-      visit_fit([&](std::size_t i) {
-        if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) <= radius2_[i]))
-          outside_.push_back(i);
-      });
-      const auto visit_within = [&](const auto& visit) {  // those less outside_
-        std::size_t next = 0;
-        visit_fit([&](std::size_t i) {
-          if (next < outside_.size() && outside_[next] == i)
-            ++next;
-          else
-            visit(i);
-        });
-      };
-      if (!outside_.empty())
-        if (const auto second = fit_rigid(x, r, visit_within); second && fits(*second)) m = second;
-    }
-    if (m) motion = *m;
-    turned = m.has_value();
-    return turned;
-  };
-  const auto beyond = [&](std::size_t i) {  // NaN: beyond
-    const double d2 = turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.shift, motion.turn)
-                             : motion2(x + 3 * i, r + 3 * i, motion.shift);
-    return !(d2 <= radius2_[i]);
-  };
-  const auto busy = [&] {
-    ++busy_streak_;
-    return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
-  };
-  // An object that was turning is compared after a turn straight away (a translation alone
-  // would leave most of its nodes beyond their radii).
-  if ((turning_ || !shift_fits) && !fit()) return busy();
-  // A turn, fast or slow, shows as nodes beyond their radii after the shift alone. A fitted
-  // turn is taken when it leaves clearly fewer beyond (an eighth fewer, at least one), or
-  // fewer than kBusyFraction where the shift left more. A dent stays with the shift, and the
-  // fit then rests for kFitPause states that the shift does not leave busy. Without this,
-  // an object turning a little each frame saw a few nodes beyond every frame, each made its
-  // own reference after the shift alone, and never enough to try a turn; the references,
-  // turned by different amounts, then left no fit that held. The pawn turning 0.05 degrees
-  // a frame cost 7.5 ms a frame, and 0.07 ms turning 0.2 degrees (docs/DETECTION.md,
-  // "Rigid motions in the shape check").
-  const auto keep_fit_if_better = [&](std::size_t by_shift, const auto& count_beyond,
-                                      std::size_t of) {
-    const bool busy_by_shift = kBusyFraction * by_shift > of;
-    if (fit_pause_ > 0 && !busy_by_shift) {  // (a busy state always tries the fit)
-      --fit_pause_;
-      return by_shift;
-    }
-    const Rigid shift_motion = motion;
-    if (fit()) {
-      const std::size_t by_fit = count_beyond();
-      if (by_fit + std::max<std::size_t>(1, by_shift / 8) <= by_shift ||
-          (busy_by_shift && kBusyFraction * by_fit <= of))
-        return by_fit;
-    }
-    motion = shift_motion;
-    turned = false;
-    fit_pause_ = kFitPause;
-    return by_shift;
-  };
-  if (sampled) {  // a rotation shows in the sample: no need to look at every node
-    const auto sample_beyond = [&] {
-      std::size_t moved = 0;
-      visit_sample([&](std::size_t i) { moved += beyond(i) ? 1 : 0; });
-      return moved;
-    };
-    std::size_t moved = sample_beyond();
-    if (moved > 0 && !turned) moved = keep_fit_if_better(moved, sample_beyond, samples);
-    if (kBusyFraction * moved > samples) return busy();
-  }
-  const auto pass = [&] {
-    // The box of the positions on the way: the nodes are in cache, and the detection
-    // then need not read them again. In chunks of nodes (pass_chunk(); one for a small
-    // object), each with its own list and box, joined in chunk order: moved_ comes sorted, and
-    // the box is the node-by-node box (a later chunk's extreme replaces the earlier one
-    // only when strictly beyond it, as a later node's does).
-    const std::size_t chunk = pass_chunk(n);
-    const std::size_t chunks = detail::num_chunks(n, chunk);
-    detail::reset_parts(moved_parts_, chunks);
-    pass_boxes_.assign(chunks, PointBox{});
-    pass_within2_.assign(chunks, 0.0);
-    const double* turn = turned ? motion.turn : nullptr;
-    detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
-      PointBox box;
-      double within2 = 0.0;
-      detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.shift, turn, begin, end,
-                          moved_parts_[c], box, within2);
-      pass_boxes_[c] = box;
-      pass_within2_[c] = within2;
-    });
-    detail::concat_parts(moved_parts_, chunks, moved_);
-    PointBox box;
-    for (const PointBox& part : pass_boxes_) box.add(part);
-    last_.motion2 = 0.0;  // (a maximum: the same whatever the chunks)
-    for (const double w : pass_within2_) last_.motion2 = std::max(last_.motion2, w);
-    last_.has_box = true;
-    last_.box_lo = box.lo();
-    last_.box_hi = box.hi();
-  };
-  pass();
-  // A small object has no sample: its pass tells, and a turn is tried after it (and the
-  // shift's pass made again when the turn does not do better).
-  if (!sampled && !turned && !moved_.empty()) {
-    bool passed_turned = false;
-    const auto pass_beyond = [&] {
-      pass();
-      passed_turned = true;
-      return moved_.size();
-    };
-    keep_fit_if_better(moved_.size(), pass_beyond, n);
-    if (passed_turned && !turned) pass();
-  }
+  Motion motion{{{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}, {shift[0], shift[1], shift[2]}, 0.0}, false};
+  if (!compare_nodes(x, samples, motion)) return check_busy(positions);
   last_.moved_nodes = moved_.size();
-  if (kBusyFraction * moved_.size() > n) return busy();
+  if (kBusyFraction * moved_.size() > n) return check_busy(positions);
   // Every node that is not finite is beyond its radius (orphans' radius is the largest
   // finite number): the full check reports those.
   for (const Index i : moved_)
     if (!positions.col(i).allFinite()) return check_all(positions, false);
   busy_streak_ = 0;
 
+  ValidationReport report = check_moved_tets(positions);
+  if (!report.clean()) return report;
+  record_bound(motion);
+  if (moved_.empty()) return report;
+  accept_moved(positions, motion);
+  return report;
+}
+
+ValidationReport ShapeCheck::check_busy(const Positions& positions) {
+  ++busy_streak_;
+  return check_all(positions, (busy_streak_ & (busy_streak_ - 1)) == 0);
+}
+
+bool ShapeCheck::fit_turn(const double* x, Motion& motion) {
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const double* r = reference_.data();
+  const double rcap = std::sqrt(rcap2_);
+  // The fit takes the sampled nodes that are in a tet: a node in none does not count, however
+  // it moves or wherever it is parked (far away, it would drag the pivot there).
+  const auto visit_fit = [&](const auto& visit) {
+    visit_sample(n, [&](std::size_t i) {
+      if (radius2_[i] != kNoTetRadius2) visit(i);
+    });
+  };
+  auto m = fit_rigid(x, r, visit_fit);
+  const auto fits = [&](const Rigid& f) {
+    return rounding_slack(turn_error(f.defect, reach(f.turn + 9), rcap), rcap) <= budget_;
+  };
+  if (m && !fits(*m)) m.reset();
+  if (m) {
+    // Fitted again to the nodes the first fit leaves within their radii: a few nodes
+    // that moved far (a dent) pull a least-squares fit enough to leave their neighbours
+    // beyond their radii too. (None beyond, as when the object only turned: the same
+    // nodes, the same fit.)
+    outside_.clear();
+    visit_fit([&](std::size_t i) {
+      if (!(rigid_motion2(x + 3 * i, r + 3 * i, m->shift, m->turn) <= radius2_[i]))
+        outside_.push_back(i);
+    });
+    const auto visit_within = [&](const auto& visit) {  // those less outside_
+      std::size_t next = 0;
+      visit_fit([&](std::size_t i) {
+        if (next < outside_.size() && outside_[next] == i)
+          ++next;
+        else
+          visit(i);
+      });
+    };
+    if (!outside_.empty())
+      if (const auto second = fit_rigid(x, r, visit_within); second && fits(*second)) m = second;
+  }
+  if (m) motion.rigid = *m;
+  motion.turned = m.has_value();
+  return motion.turned;
+}
+
+// A turn, fast or slow, shows as nodes beyond their radii after the shift alone. A fitted
+// turn is taken when it leaves clearly fewer beyond (an eighth fewer, at least one), or
+// fewer than kBusyFraction where the shift left more. A dent stays with the shift, and the
+// fit then rests for kFitPause states that the shift does not leave busy. Without this,
+// an object turning a little each frame saw a few nodes beyond every frame, each made its
+// own reference after the shift alone, and never enough to try a turn; the references,
+// turned by different amounts, then left no fit that held. The pawn turning 0.05 degrees
+// a frame cost 7.5 ms a frame, and 0.07 ms turning 0.2 degrees (docs/DETECTION.md,
+// "Rigid motions in the shape check").
+template <typename CountBeyond>
+std::size_t ShapeCheck::keep_fit_if_better(const double* x, Motion& motion, std::size_t by_shift,
+                                           const CountBeyond& count_beyond, std::size_t of) {
+  const bool busy_by_shift = kBusyFraction * by_shift > of;
+  if (fit_pause_ > 0 && !busy_by_shift) {  // (a busy state always tries the fit)
+    --fit_pause_;
+    return by_shift;
+  }
+  const Rigid shift_motion = motion.rigid;
+  if (fit_turn(x, motion)) {
+    const std::size_t by_fit = count_beyond();
+    if (by_fit + std::max<std::size_t>(1, by_shift / 8) <= by_shift ||
+        (busy_by_shift && kBusyFraction * by_fit <= of))
+      return by_fit;
+  }
+  motion.rigid = shift_motion;
+  motion.turned = false;
+  fit_pause_ = kFitPause;
+  return by_shift;
+}
+
+bool ShapeCheck::compare_nodes(const double* x, std::size_t samples, Motion& motion) {
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const bool sampled = n > kSampleAbove;
+  const double* r = reference_.data();
+  // The motion is used only if its rounding fits the room kept off the radii (budget_,
+  // rounding_slack()); a shift too far from the reference is fitted as a rigid motion
+  // (about the centroids, whose rounding does not grow with the shift).
+  const double rcap = std::sqrt(rcap2_);
+  const bool shift_fits = rounding_slack(shift_error(motion.rigid.shift, rcap), rcap) <= budget_;
+  // An object that was turning is compared after a turn straight away (a translation alone
+  // would leave most of its nodes beyond their radii).
+  if ((turning_ || !shift_fits) && !fit_turn(x, motion)) return false;
+  if (sampled) {  // a rotation shows in the sample: no need to look at every node
+    const auto beyond = [&](std::size_t i) {  // NaN: beyond
+      const double d2 =
+          motion.turned ? rigid_motion2(x + 3 * i, r + 3 * i, motion.rigid.shift, motion.rigid.turn)
+                        : motion2(x + 3 * i, r + 3 * i, motion.rigid.shift);
+      return !(d2 <= radius2_[i]);
+    };
+    const auto sample_beyond = [&] {
+      std::size_t moved = 0;
+      visit_sample(n, [&](std::size_t i) { moved += beyond(i) ? 1 : 0; });
+      return moved;
+    };
+    std::size_t moved = sample_beyond();
+    if (moved > 0 && !motion.turned)
+      moved = keep_fit_if_better(x, motion, moved, sample_beyond, samples);
+    if (kBusyFraction * moved > samples) return false;
+  }
+  pass_nodes(x, motion);
+  // A small object has no sample: its pass tells, and a turn is tried after it (and the
+  // shift's pass made again when the turn does not do better).
+  if (!sampled && !motion.turned && !moved_.empty()) {
+    bool passed_turned = false;
+    const auto pass_beyond = [&] {
+      pass_nodes(x, motion);
+      passed_turned = true;
+      return moved_.size();
+    };
+    keep_fit_if_better(x, motion, moved_.size(), pass_beyond, n);
+    if (passed_turned && !motion.turned) pass_nodes(x, motion);
+  }
+  return true;
+}
+
+void ShapeCheck::pass_nodes(const double* x, const Motion& motion) {
+  // The box of the positions on the way: the nodes are in cache, and the detection
+  // then need not read them again. In chunks of nodes (pass_chunk(); one for a small
+  // object), each with its own list and box, joined in chunk order: moved_ comes sorted, and
+  // the box is the node-by-node box (a later chunk's extreme replaces the earlier one
+  // only when strictly beyond it, as a later node's does).
+  const std::size_t n = static_cast<std::size_t>(num_nodes_);
+  const std::size_t chunk = pass_chunk(n);
+  const std::size_t chunks = detail::num_chunks(n, chunk);
+  detail::reset_parts(moved_parts_, chunks);
+  pass_boxes_.assign(chunks, PointBox{});
+  pass_within2_.assign(chunks, 0.0);
+  const double* turn = motion.turned ? motion.rigid.turn : nullptr;
+  detail::for_chunks(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+    PointBox box;
+    double within2 = 0.0;
+    detail::motion_pass(x, blocks_.data(), radius2_.data(), motion.rigid.shift, turn, begin, end,
+                        moved_parts_[c], box, within2);
+    pass_boxes_[c] = box;
+    pass_within2_[c] = within2;
+  });
+  detail::concat_parts(moved_parts_, chunks, moved_);
+  PointBox box;
+  for (const PointBox& part : pass_boxes_) box.add(part);
+  last_.motion2 = 0.0;  // (a maximum: the same whatever the chunks)
+  for (const double w : pass_within2_) last_.motion2 = std::max(last_.motion2, w);
+  last_.has_box = true;
+  last_.box_lo = box.lo();
+  last_.box_hi = box.hi();
+}
+
+ValidationReport ShapeCheck::check_moved_tets(const Positions& positions) {
   // The tets of the nodes that moved, in check order.
   places_.clear();
   {
@@ -671,28 +714,33 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
   report.min_quality = std::numeric_limits<double>::quiet_NaN();
   detail::check_tet_shapes(positions, tets_, index_, options_, report);
   last_.checked_tets = places_.size();
-  if (!report.clean()) return report;
-  // Every node that did not move is within its radius of its reference (shifted, and
-  // turned when `turned`); those that did are made their own reference below.
-  last_.bounded = true;
-  last_.shift = Eigen::Vector3d(motion.shift[0], motion.shift[1], motion.shift[2]);
-  last_.rotated = turned;
-  for (int j = 0; j < 3; ++j)
-    for (int k = 0; k < 3; ++k) last_.rotation(j, k) = motion.turn[3 * j + k];
-  last_.pivot = Eigen::Vector3d(motion.turn[9], motion.turn[10], motion.turn[11]);
-  turning_ = turned;
-  if (moved_.empty()) return report;
+  return report;
+}
 
-  // Accepted: the nodes that moved join the reference (moved back by the shift and turned
-  // back, like the rest of it), and the radii of their tets and of those tets' nodes are
-  // recomputed.
-  const double* m = motion.turn;
+void ShapeCheck::record_bound(const Motion& motion) {
+  // Every node that did not move is within its radius of its reference (shifted, and
+  // turned when `turned`); those that did are made their own reference (accept_moved()).
+  last_.bounded = true;
+  last_.shift =
+      Eigen::Vector3d(motion.rigid.shift[0], motion.rigid.shift[1], motion.rigid.shift[2]);
+  last_.rotated = motion.turned;
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 3; ++k) last_.rotation(j, k) = motion.rigid.turn[3 * j + k];
+  last_.pivot = Eigen::Vector3d(motion.rigid.turn[9], motion.rigid.turn[10], motion.rigid.turn[11]);
+  turning_ = motion.turned;
+}
+
+void ShapeCheck::accept_moved(const Positions& positions, const Motion& motion) {
+  // The nodes that moved join the reference (moved back by the shift and turned back, like
+  // the rest of it), and the radii of their tets and of those tets' nodes are recomputed.
+  const double* m = motion.rigid.turn;
+  const double* shift = motion.rigid.shift;
   for (const Index i : moved_) {
-    const double u[3] = {positions(0, i) - motion.shift[0], positions(1, i) - motion.shift[1],
-                         positions(2, i) - motion.shift[2]};
+    const double u[3] = {positions(0, i) - shift[0], positions(1, i) - shift[1],
+                         positions(2, i) - shift[2]};
     for (int c = 0; c < 3; ++c)
       reference_(c, i) =
-          turned ? (m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2]) + m[9 + c] : u[c];
+          motion.turned ? (m[c] * u[0] + m[3 + c] * u[1] + m[6 + c] * u[2]) + m[9 + c] : u[c];
     set_block_node(i);
     cover(i);
   }
@@ -716,7 +764,6 @@ ValidationReport ShapeCheck::check(const Positions& positions) {
     if (t > 0.0) rcap2_ = std::max(rcap2_, t * t);
   }
   last_.version_after = ++version_;
-  return report;
 }
 
 }  // namespace tc

@@ -141,6 +141,38 @@ class ShapeCheck {
   /// in a tet.
   [[nodiscard]] double reach(const double* pivot) const;
 
+  // The steps of check(), once the state has a finite shift from the reference.
+  /// The motion a state's nodes are compared after (defined in shape_check.cpp).
+  struct Motion;
+  /// Compares the nodes with their references after the shift in `motion`, or after a turn
+  /// fitted in its place when that leaves clearly fewer beyond their radii (decided on the
+  /// sample of `samples` nodes of a large object): moved_, and last_'s box and motion2.
+  /// False, with no pass over every node, when the state is busy under either motion.
+  bool compare_nodes(const double* x, std::size_t samples, Motion& motion);
+  /// Fits a turn and a shift to the sampled nodes in tets (fit_rigid(); again without the
+  /// nodes the first fit leaves beyond their radii) into `motion`; false, motion.turned
+  /// false, when no fit whose rounding fits budget_ is found.
+  bool fit_turn(const double* x, Motion& motion);
+  /// Tries a fitted turn in place of the shift that leaves `by_shift` of `of` nodes beyond
+  /// their radii and keeps it when count_beyond() under it is clearly fewer; else goes back
+  /// to the shift and rests the fit for kFitPause states. Returns the count kept.
+  template <typename CountBeyond>
+  std::size_t keep_fit_if_better(const double* x, Motion& motion, std::size_t by_shift,
+                                 const CountBeyond& count_beyond, std::size_t of);
+  /// The motion pass over every node after `motion` (detail::motion_pass(), in chunks):
+  /// moved_ sorted, and last_'s box and motion2.
+  void pass_nodes(const double* x, const Motion& motion);
+  /// check_all() of a busy state, rebuilding the reference on the 1st, 2nd, 4th, 8th, ...
+  /// busy state in a row.
+  ValidationReport check_busy(const Positions& positions);
+  /// The shapes of the tets of the nodes in moved_ (places_, tets_, index_), in check order.
+  ValidationReport check_moved_tets(const Positions& positions);
+  /// What a clean state proved: last_'s bound after `motion`; turning_.
+  void record_bound(const Motion& motion);
+  /// The nodes in moved_ join the reference (moved back by `motion`), and the radii of
+  /// their tets and of those tets' nodes are recomputed.
+  void accept_moved(const Positions& positions, const Motion& motion);
+
   const TetCheckOrder& order_;
   const Csr& node_tets_;
   Index num_nodes_;
