@@ -391,9 +391,19 @@ bool SelfCollider::adjacent(Index a, Index b) const {
 }
 
 bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats& st) {
-  const auto& faces = topology_.boundary_faces;
   crossing_.clear();
   if (nodes_.empty()) return false;
+  measure_faces(x);
+  refit_surface_tree();
+  const double cert = traverse_surface(x, rel, st);
+  std::sort(crossing_.begin(), crossing_.end());
+  st.crossing_pairs = crossing_.size();
+  keep_certificate(x, cert, st);
+  return !crossing_.empty();
+}
+
+void SelfCollider::measure_faces(const Positions& x) {
+  const auto& faces = topology_.boundary_faces;
   face_boxes_.resize(faces.size());
   face_normals_.resize(faces.size());
   face_reach_.resize(faces.size());
@@ -414,7 +424,10 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
           face_reach_[f] = longest > 0.0 ? len / (16.0 * std::sqrt(longest)) : 0.0;
         }
       });
-  // Refit bottom-up: children follow their parent in pre-order.
+}
+
+void SelfCollider::refit_surface_tree() {
+  // Bottom-up: children follow their parent in pre-order.
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     SurfaceNode& node = nodes_[i];
     if (node.leaf()) {
@@ -453,6 +466,10 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
       node.cone = cone;
     }
   }
+}
+
+double SelfCollider::traverse_surface(const Positions& x, double rel, SelfDetectStats& st) {
+  const auto& faces = topology_.boundary_faces;
   // Self-traversal. `cert`: how far every corner may move (after a common translation)
   // with every decision below unchanged.
   double cert = std::numeric_limits<double>::infinity();
@@ -531,8 +548,10 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
       stack.emplace_back(i, b.right);
     }
   }
-  std::sort(crossing_.begin(), crossing_.end());
-  st.crossing_pairs = crossing_.size();
+  return cert;
+}
+
+void SelfCollider::keep_certificate(const Positions& x, double cert, SelfDetectStats& st) {
   // A certificate only where nothing crosses, from these positions.
   cert_ = crossing_.empty() && std::isfinite(cert) ? cert : 0.0;
   st.certificate = cert_;
@@ -546,7 +565,6 @@ bool SelfCollider::surface_gate(const Positions& x, double rel, SelfDetectStats&
       cert_scale_ = std::max(cert_scale_, cert_x_[k].cwiseAbs().maxCoeff());
     }
   }
-  return !crossing_.empty();
 }
 
 namespace {

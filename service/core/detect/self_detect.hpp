@@ -113,6 +113,19 @@ class SelfCollider {
   struct Frame;
   void build_surface_tree(const Positions& rest);
   bool surface_gate(const Positions& x, double relative_tolerance, SelfDetectStats& st);
+  // The steps of surface_gate().
+  /// Each boundary face's box, unit normal (zero when degenerate) and reach at `x`
+  /// (face_boxes_, face_normals_, face_reach_).
+  void measure_faces(const Positions& x);
+  /// The surface tree's boxes, normal cones and reaches from the faces', bottom-up.
+  void refit_surface_tree();
+  /// The tree against itself: the crossing face pairs into crossing_ (unsorted), and the
+  /// returned certificate, how far every corner may move (after a common translation) with
+  /// every decision unchanged (infinity when nothing bounds it).
+  double traverse_surface(const Positions& x, double relative_tolerance, SelfDetectStats& st);
+  /// Keeps `cert` as cert_ with the boundary nodes' positions (cert_x_) when nothing
+  /// crosses; else no certificate.
+  void keep_certificate(const Positions& x, double cert, SelfDetectStats& st);
   /// True when the boundary nodes of `x` lie within cert_ of cert_x_ after removing one
   /// common translation: by `bound` (within_bound), else after removing their mean
   /// displacement.
