@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -49,6 +50,20 @@ std::string program_from_env(const char* variable) {
     return {};
   }
   return v;
+}
+
+std::filesystem::path recordings_dir() {
+  return program_from_env("TC_RECORDINGS");
+}
+
+std::vector<std::filesystem::path> committed_recordings() {
+  std::vector<std::filesystem::path> files;
+  const auto dir = recordings_dir();
+  if (dir.empty()) return files;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.path().extension() == ".jsonl") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 DaemonProcess::DaemonProcess(std::filesystem::path dir, std::uint32_t domain,

@@ -28,6 +28,13 @@ std::filesystem::path make_temp_dir(const std::string& prefix);
 /// TC_CLI); fails the test when missing.
 std::string program_from_env(const char* variable);
 
+/// The committed recordings' folder (TC_RECORDINGS, set by CTest; empty and a test
+/// failure when missing).
+std::filesystem::path recordings_dir();
+
+/// The committed recordings (`*.jsonl` directly in recordings_dir()), sorted by name.
+std::vector<std::filesystem::path> committed_recordings();
+
 class DaemonProcess {
  public:
   /// `config_yaml` is written to a file in `dir` and passed with --config.

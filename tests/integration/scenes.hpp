@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <chrono>
 #include <cstdint>
 #include <vector>
 
@@ -41,5 +42,25 @@ inline std::vector<double> translated(const client::Mesh& mesh, const Eigen::Vec
   for (std::size_t i = 0; i < p.size(); ++i) p[i] += offset[static_cast<int>(i % 3)];
   return p;
 }
+
+/// Two overlapping boxes that also reach below z = 0, moving a little every frame.
+struct TwoBoxes {
+  client::Mesh a = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  client::Mesh b = box_mesh(3, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
+  [[nodiscard]] std::vector<double> pos_a(std::int64_t f) const {
+    return translated(a, {0.0, 0.0, 0.001 * static_cast<double>(f % 50)});
+  }
+  [[nodiscard]] std::vector<double> pos_b(std::int64_t f) const {
+    return translated(b, {-0.002 * static_cast<double>(f % 50), 0.0, 0.0});
+  }
+  /// Registers both as "a" and "b" (default parameters) and waits up to 10 s for each;
+  /// true when both were registered.
+  bool register_with(client::Client& c) const {
+    c.register_object("a", a, {});
+    c.register_object("b", b, {});
+    return c.wait_registered("a", std::chrono::seconds(10)).ok &&
+           c.wait_registered("b", std::chrono::seconds(10)).ok;
+  }
+};
 
 }  // namespace tc::itest

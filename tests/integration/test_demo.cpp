@@ -21,8 +21,8 @@ namespace {
 using namespace std::chrono_literals;
 
 std::filesystem::path demo_recordings() {
-  const char* d = std::getenv("TC_RECORDINGS");
-  return d != nullptr ? std::filesystem::path(d) / "demo" : std::filesystem::path();
+  const auto d = recordings_dir();
+  return d.empty() ? d : d / "demo";
 }
 
 bool finite_everywhere(const nlohmann::json& j) {

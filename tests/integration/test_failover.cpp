@@ -25,6 +25,7 @@
 #include "daemon_process.hpp"
 #include "protocol.hpp"
 #include "recording.hpp"
+#include "replay_options.hpp"
 #include "replayer.hpp"
 #include "sanitizer.hpp"
 #include "scenes.hpp"
@@ -286,21 +287,13 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 // stronger one writes) and the first one after the primary's return (the standby still
 // owns the instances until then).
 TEST_F(FailoverTest, TheStandbyAnswersWhenThePrimaryDiesAndThePrimaryTakesOverAgain) {
-  const char* recordings = std::getenv("TC_RECORDINGS");
-  ASSERT_NE(recordings, nullptr);
-  const auto records =
-      replay::read_recording(std::filesystem::path(recordings) / "two_boxes.jsonl");
+  const auto records = replay::read_recording(recordings_dir() / "two_boxes.jsonl");
   ASSERT_TRUE(records) << records.error().message;
   AnswerObserver observer(domain_, "two_boxes");
   ASSERT_EQ(observer.error(), "");
   ASSERT_TRUE(observer.wait_for_writers(2, 20s)) << "the daemons' answer writers never matched";
 
-  replay::ReplayOptions o;
-  o.domain = domain_;
-  o.rate = 0.0;
-  o.check = true;
-  o.frame_timeout = 30s;
-  o.resend_after = 300ms;
+  replay::ReplayOptions o = checked_replay_options(domain_);
   o.services = 2;
   std::map<std::int64_t, std::string> expected_owner;  // frame -> who must answer it
   std::int64_t kill_frame = -1;                        // the first frame published after the kill

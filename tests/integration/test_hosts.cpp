@@ -65,13 +65,8 @@ class HostsTest : public ::testing::Test {
 
   /// `tetcollide replay --check` of every committed recording on host 1.
   void replay_committed_recordings(const std::string& cyclonedds_config) {
-    const char* dir = std::getenv("TC_RECORDINGS");
-    ASSERT_NE(dir, nullptr);
-    std::vector<std::filesystem::path> files;
-    for (const auto& e : std::filesystem::directory_iterator(dir))
-      if (e.path().extension() == ".jsonl") files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    ASSERT_EQ(files.size(), scenario_names().size()) << "recordings in " << dir;
+    const auto files = committed_recordings();
+    ASSERT_EQ(files.size(), scenario_names().size()) << "recordings in " << recordings_dir();
     const long long before = received_bytes(*lan_, 0);
     for (const auto& file : files) {
       SCOPED_TRACE(file.string());

@@ -60,11 +60,6 @@ std::optional<double> wait_value(int port, const std::string& series, std::optio
   }
 }
 
-struct TwoBoxes {
-  client::Mesh a = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
-  client::Mesh b = box_mesh(3, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});  // overlaps a
-};
-
 class MetricsTest : public ::testing::Test {
  protected:
   void SetUp() override { dir_ = make_temp_dir("itest-metrics"); }
@@ -105,10 +100,7 @@ TEST_F(MetricsTest, ScrapedValuesFollowFramesObjectsAndRejections) {
 
   auto c = connect("m");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   constexpr std::int64_t kFrames = 20;
   std::int64_t answered = 0;
   for (std::int64_t f = 0; f < kFrames; ++f) {
@@ -173,10 +165,7 @@ TEST_F(MetricsTest, TheStandbyCountsTheFailoverWhenThePrimaryDies) {
 
   auto c = connect("f");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   std::int64_t f = 0;
   const auto stream = [&](std::int64_t frames) {
     for (const std::int64_t end = f + frames; f < end; ++f) {

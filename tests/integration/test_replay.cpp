@@ -7,8 +7,9 @@
 #include <csignal>
 #include <fstream>
 
-#include "daemon_process.hpp"
+#include "daemon_test.hpp"
 #include "recording.hpp"
+#include "replay_options.hpp"
 #include "replayer.hpp"
 #include "scenarios.hpp"
 
@@ -30,11 +31,6 @@ log:
   timing_summary_period_s: 0
 )";
 
-std::filesystem::path recordings_dir() {
-  const char* d = std::getenv("TC_RECORDINGS");
-  return d != nullptr ? std::filesystem::path(d) : std::filesystem::path();
-}
-
 /// Counts topology records of a scene in a recording (0 when unreadable).
 std::size_t topologies_in(const std::filesystem::path& file, const std::string& scene) {
   const auto records = replay::read_recording(file);
@@ -55,18 +51,9 @@ std::size_t forces_in(const std::filesystem::path& file, std::int64_t frame) {
   return n;
 }
 
-class ReplayTest : public ::testing::Test {
+class ReplayTest : public DaemonTest {
  protected:
-  void SetUp() override {
-    dir_ = make_temp_dir("itest-replay");
-    daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, kConfig);
-    ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
-  }
-  void TearDown() override {
-    if (HasFailure() && daemon_) std::cerr << "---- daemon log ----\n" << daemon_->log_text();
-    daemon_.reset();
-    std::filesystem::remove_all(dir_);
-  }
+  void SetUp() override { start_daemon("itest-replay", kConfig); }
 
   /// Runs scenario `name` with `tetcollide record` capturing it into `out`.
   void record_scenario(const std::string& name, const std::filesystem::path& out) {
@@ -114,10 +101,6 @@ class ReplayTest : public ::testing::Test {
                         std::to_string(domain_), "--rate", "0", "--check", "--json"},
                        60s);
   }
-
-  std::uint32_t domain_ = private_domain();
-  std::filesystem::path dir_;
-  std::unique_ptr<DaemonProcess> daemon_;
 };
 
 TEST_F(ReplayTest, RecordThenReplayIsBitIdentical) {
@@ -173,10 +156,7 @@ TEST_F(ReplayTest, CheckDetectsDifferentForces) {
 }
 
 TEST_F(ReplayTest, CommittedRecordingsReplayBitForBit) {
-  std::vector<std::filesystem::path> files;
-  for (const auto& e : std::filesystem::directory_iterator(recordings_dir()))
-    if (e.path().extension() == ".jsonl") files.push_back(e.path());
-  std::sort(files.begin(), files.end());
+  const auto files = committed_recordings();
   ASSERT_EQ(files.size(), scenario_names().size()) << "recordings in " << recordings_dir();
   for (const auto& file : files) {
     SCOPED_TRACE(file.string());
@@ -208,12 +188,7 @@ TEST_F(ReplayTest, ATopologyRecordedBeforeTheLastStatesOfItsPredecessorWaitsForT
 TEST_F(ReplayTest, ReplayResumesAfterTheDaemonIsKilled) {
   const auto records = replay::read_recording(recordings_dir() / "two_boxes.jsonl");
   ASSERT_TRUE(records) << records.error().message;
-  replay::ReplayOptions o;
-  o.domain = domain_;
-  o.rate = 0.0;
-  o.check = true;
-  o.frame_timeout = 30s;
-  o.resend_after = 300ms;
+  replay::ReplayOptions o = checked_replay_options(domain_);
   bool restarted = false;
   o.before_frame = [&](std::size_t index, const std::string&, std::int64_t) {
     if (index != 20) return;

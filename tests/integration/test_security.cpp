@@ -177,6 +177,22 @@ class SecurityTest : public ::testing::Test {
     return parse_peer(dir_ / "peer.out");
   }
 
+  /// A served client streams in scene "shared" while the peer ("intruder") runs beside it;
+  /// the peer must never match: no service status, no registration, no forces for it,
+  /// and nothing of it in the daemon's log. Returns the peer's output.
+  std::map<std::string, std::string> expect_the_peer_kept_out(const std::string& client_profile) {
+    auto c = connect("shared", profile(client_profile));
+    const auto events = stream_two_boxes(*c, 30);
+    for (const auto& e : events) EXPECT_NE(e.object, "intruder") << e.message;
+    auto peer = finish_peer("forces");
+    EXPECT_EQ(peer["connected"], "1") << peer["connect_error"];
+    EXPECT_EQ(peer["status_events"], "0");
+    EXPECT_EQ(peer["registered"], "0");
+    EXPECT_EQ(peer["forces"], "0");
+    EXPECT_EQ(daemon_->log_text().find("intruder"), std::string::npos) << "the peer's data got in";
+    return peer;
+  }
+
   /// Streams two overlapping boxes in `scene` for `frames` frames; every frame must be
   /// answered and some must carry forces. Returns the status events seen.
   std::vector<client::StatusEvent> stream_two_boxes(Client& c, int frames,
@@ -229,16 +245,8 @@ TEST_F(SecurityTest, TheRightCertificateGetsForces) {
 // genuine client in the same scene is served at the same time.
 TEST_F(SecurityTest, AForeignCaIsRejected) {
   start_peer("client", profile("foreign_client"), "shared", 5.0);
-  auto c = connect("shared", profile("client"));
-  const auto events = stream_two_boxes(*c, 30);
-  for (const auto& e : events) EXPECT_NE(e.object, "intruder") << e.message;
-  auto peer = finish_peer("forces");
-  EXPECT_EQ(peer["connected"], "1") << peer["connect_error"];
-  EXPECT_EQ(peer["status_events"], "0");
-  EXPECT_EQ(peer["registered"], "0");
-  EXPECT_EQ(peer["forces"], "0");
+  expect_the_peer_kept_out("client");
   const std::string log = daemon_->log_text();
-  EXPECT_EQ(log.find("intruder"), std::string::npos) << "the foreign client's data got in";
   // Cyclone reports the failed handshake on stderr ("Begin handshake reply failed:
   // Certificate not valid: ... unable to get local issuer certificate") on the side that
   // validates the other's certificate first: in every run seen the daemon (the daemon
@@ -257,16 +265,7 @@ TEST_F(SecurityTest, AForeignCaIsRejected) {
 // way (it gets no status heartbeats and no forces; its topology never reaches the daemon).
 TEST_F(SecurityTest, AnUnsecuredParticipantNeverMatches) {
   start_peer("client", network_, "shared", 5.0);
-  auto c = connect("shared", profile("client"));
-  const auto events = stream_two_boxes(*c, 30);
-  for (const auto& e : events) EXPECT_NE(e.object, "intruder") << e.message;
-  auto peer = finish_peer("forces");
-  EXPECT_EQ(peer["connected"], "1") << peer["connect_error"];
-  EXPECT_EQ(peer["status_events"], "0");
-  EXPECT_EQ(peer["registered"], "0");
-  EXPECT_EQ(peer["forces"], "0");
-  EXPECT_EQ(daemon_->log_text().find("intruder"), std::string::npos)
-      << "the unsecured participant's data got in";
+  expect_the_peer_kept_out("client");
 }
 
 // (d) A client whose permissions deny the force topic cannot read (or write) forces: the

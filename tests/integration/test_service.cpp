@@ -14,7 +14,7 @@
 #include <set>
 #include <thread>
 
-#include "daemon_process.hpp"
+#include "daemon_test.hpp"
 #include "protocol.hpp"
 #include "scenes.hpp"
 #include "tetcollide.h"
@@ -40,28 +40,9 @@ log:
   timing_summary_period_s: 0
 )";
 
-class ServiceTest : public ::testing::Test {
+class ServiceTest : public DaemonTest {
  protected:
-  void SetUp() override {
-    dir_ = make_temp_dir("itest-service");
-    daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, kConfig);
-    ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
-  }
-  void TearDown() override {
-    if (HasFailure() && daemon_) std::cerr << "---- daemon log ----\n" << daemon_->log_text();
-    daemon_.reset();
-    std::filesystem::remove_all(dir_);
-  }
-  std::unique_ptr<Client> connect(const std::string& scene,
-                                  std::chrono::milliseconds resend = 0ms) {
-    client::Options o;
-    o.domain = domain_;
-    o.scene = scene;
-    o.resend_after = resend;
-    auto c = Client::connect(o);
-    EXPECT_TRUE(c->wait_for_service(10s)) << "no READY service on domain " << domain_;
-    return c;
-  }
+  void SetUp() override { start_daemon("itest-service", kConfig); }
   /// Waits for a status event matching `pred` (events are consumed).
   template <typename Pred>
   std::optional<client::StatusEvent> wait_status(Client& c, Pred pred,
@@ -74,10 +55,6 @@ class ServiceTest : public ::testing::Test {
     }
     return std::nullopt;
   }
-
-  std::uint32_t domain_ = private_domain();
-  std::filesystem::path dir_;
-  std::unique_ptr<DaemonProcess> daemon_;
 };
 
 void expect_sane(const client::ObjectForces& f, std::size_t nodes) {
@@ -113,25 +90,10 @@ TEST_F(ServiceTest, StopsCleanlyOnSigint) {
   EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
-/// Two overlapping boxes that also reach below z = 0, moving a little every frame.
-struct TwoBoxes {
-  client::Mesh a = box_mesh(3, {-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
-  client::Mesh b = box_mesh(3, {0.3, -0.4, -0.4}, {1.3, 0.6, 0.6});
-  [[nodiscard]] std::vector<double> pos_a(std::int64_t f) const {
-    return translated(a, {0.0, 0.0, 0.001 * static_cast<double>(f % 50)});
-  }
-  [[nodiscard]] std::vector<double> pos_b(std::int64_t f) const {
-    return translated(b, {-0.002 * static_cast<double>(f % 50), 0.0, 0.0});
-  }
-};
-
 TEST_F(ServiceTest, EveryStreamedFrameIsAnswered) {
   auto c = connect("stream");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   std::size_t with_forces = 0;
   for (std::int64_t f = 0; f < 200; ++f) {
     const auto pa = s.pos_a(f);
@@ -154,10 +116,7 @@ TEST_F(ServiceTest, SameStatesGiveBitIdenticalForcesInAnotherScene) {
   std::vector<std::vector<client::ObjectForces>> runs(2);
   for (int run = 0; run < 2; ++run) {
     auto c = connect("determinism-" + std::to_string(run));
-    c->register_object("a", s.a, {});
-    c->register_object("b", s.b, {});
-    ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-    ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+    ASSERT_TRUE(s.register_with(*c));
     for (std::int64_t f = 0; f < 30; ++f) {
       const auto pa = s.pos_a(f);
       const auto pb = s.pos_b(f);
@@ -183,9 +142,7 @@ TEST_F(ServiceTest, ScenesRunInParallelAndIndependently) {
   for (int k = 0; k < 3; ++k)
     sims.emplace_back([&, k] {
       auto c = connect("parallel-" + std::to_string(k));
-      c->register_object("a", s.a, {});
-      c->register_object("b", s.b, {});
-      if (!c->wait_registered("a", 10s).ok || !c->wait_registered("b", 10s).ok) return;
+      if (!s.register_with(*c)) return;
       for (std::int64_t f = 0; f < 50; ++f) {
         const auto pa = s.pos_a(f + k);
         const auto pb = s.pos_b(f);
@@ -201,10 +158,7 @@ TEST_F(ServiceTest, ScenesRunInParallelAndIndependently) {
 TEST_F(ServiceTest, BadInputIsRejectedAndGoodObjectsKeepTheirForces) {
   auto c = connect("bad");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
 
   // Topologies: an index out of range (sample validation) and an inverted tet (found
   // by the pipeline when it builds the object).
@@ -309,10 +263,7 @@ TEST_F(ServiceTest, BadInputIsRejectedAndGoodObjectsKeepTheirForces) {
 TEST_F(ServiceTest, ACutReplacesTheTopologyBetweenFrames) {
   auto c = connect("cut");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   const auto pa0 = s.pos_a(0);
   const auto pb0 = s.pos_b(0);
   c->publish_states(0, {{"a", pa0}, {"b", pb0}});
@@ -570,10 +521,7 @@ TEST_F(ServiceTest, ContactsForTheObjectsThatAskForThem) {
 TEST_F(ServiceTest, StatusShowsTheServiceAndItsScenes) {
   auto c = connect("watched");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   std::atomic<bool> done{false};
   std::thread simulator([&] {
     for (std::int64_t f = 0; !done.load() && f < 20000; ++f) {
@@ -618,10 +566,7 @@ TEST_F(ServiceTest, StatusShowsTheServiceAndItsScenes) {
 TEST_F(ServiceTest, RemovedAndDisconnectedObjectsLeaveTheScene) {
   auto c = connect("remove");
   TwoBoxes s;
-  c->register_object("a", s.a, {});
-  c->register_object("b", s.b, {});
-  ASSERT_TRUE(c->wait_registered("a", 10s).ok);
-  ASSERT_TRUE(c->wait_registered("b", 10s).ok);
+  ASSERT_TRUE(s.register_with(*c));
   c->remove_object("b");
   const auto e = wait_status(*c, [](const client::StatusEvent& ev) {
     return ev.kind == client::StatusEvent::Kind::kRemoved && ev.object == "b";
@@ -668,9 +613,7 @@ TEST_F(ServiceTest, StaticObjectsAreNotWaitedFor) {
   // an answer well within it was not held back waiting for the static object's state.
   std::string config = kConfig;
   config.replace(config.find("assembly_wait_ms: 50"), 20, "assembly_wait_ms: 2000");
-  daemon_.reset();
-  daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, config);
-  ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  restart_daemon(config);
   auto c = connect("static");
   TwoBoxes s;
   client::ObjectParams floor;
@@ -1003,9 +946,7 @@ TEST_F(ServiceTest, ALateStatusReaderGetsTheNewest32Samples) {
   // Heartbeats every hour: the samples written during the test are the test's own.
   std::string config = kConfig;
   config.replace(config.find("status_period_s: 0.2"), 20, "status_period_s: 3600");
-  daemon_.reset();
-  daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, config);
-  ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
+  restart_daemon(config);
   const auto late_reader = [&](std::size_t expect) {
     auto late = connect("history-reader");
     std::vector<client::StatusEvent> events;

@@ -21,6 +21,16 @@ namespace {
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
+/// Builds the configured consumer project in `build` (verbose: the output shows the
+/// command lines); the tetcollide::client target must bring C++20.
+RunResult build_consumer(const std::string& cmake, const fs::path& build) {
+  RunResult r = run_program({cmake, "--build", build.string(), "--verbose"}, 120s);
+  EXPECT_NE(r.out.find("-std=gnu++20"), std::string::npos)
+      << "tetcollide::client did not bring C++20:\n"
+      << r.out;
+  return r;
+}
+
 /// Runs the consumer `program` against a daemon on `domain`, with a mesh to read
 /// (data/meshes/box.msh, 3,276 tets), and checks that it loaded
 /// libtetcollide_client.so.0 from `libdir`.
@@ -118,11 +128,8 @@ TEST_F(InstalledTree, ConsumerBuiltWith_cmake) {
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(file_text(build / "CMakeCache.txt").find("tetcollide_DIR:PATH=" + package.string()),
             std::string::npos);
-  r = run_program({cmake, "--build", build.string(), "--verbose"}, 120s);
+  r = build_consumer(cmake, build);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("-std=gnu++20"), std::string::npos)
-      << "tetcollide::client did not bring C++20:\n"
-      << r.out;
   EXPECT_NE(r.out.find("-isystem " + (prefix_ / "include").string()), std::string::npos) << r.out;
 
   start_installed_daemon();
@@ -178,11 +185,8 @@ TEST(BuildTree, ConsumerBuiltWith_cmake) {
   EXPECT_NE(file_text(build / "CMakeCache.txt")
                 .find("tetcollide_DIR:UNINITIALIZED=" + build_tree.string() + "\n"),
             std::string::npos);
-  r = run_program({cmake, "--build", build.string(), "--verbose"}, 120s);
+  r = build_consumer(cmake, build);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("-std=gnu++20"), std::string::npos)
-      << "tetcollide::client did not bring C++20:\n"
-      << r.out;
   EXPECT_NE(r.out.find("-isystem " + (source / "client" / "lib" / "include").string()),
             std::string::npos)
       << r.out;

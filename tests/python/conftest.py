@@ -110,13 +110,19 @@ def workdir(tmp_base):
         yield Path(d)
 
 
-@pytest.fixture(scope="module")
-def daemon(domain, tmp_base):
-    with tempfile.TemporaryDirectory(prefix="python-daemon-", dir=tmp_base) as d:
+def running_daemon(domain, tmp_base, prefix):
+    """A started Daemon in a fresh directory under tmp_base; stopped when the generator
+    closes (yield from it in a fixture)."""
+    with tempfile.TemporaryDirectory(prefix=prefix, dir=tmp_base) as d:
         daemon = Daemon(d, domain)
         daemon.start()
         yield daemon
         daemon.stop()
+
+
+@pytest.fixture(scope="module")
+def daemon(domain, tmp_base):
+    yield from running_daemon(domain, tmp_base, "python-daemon-")
 
 
 @pytest.fixture

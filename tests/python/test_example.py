@@ -10,13 +10,20 @@ import numpy as np
 from conftest import SOURCE_DIR, private_domain
 
 
-def test_drop_ball_comes_to_rest_on_the_box(workdir):
-    out = workdir / "out"
+def run_example(script, out):
+    """Runs examples/python/<script> as the README says (its own daemon, a private domain),
+    writing into `out`; asserts it exited 0."""
     run = subprocess.run(
-        [sys.executable, str(SOURCE_DIR / "examples" / "python" / "drop_ball.py"),
+        [sys.executable, str(SOURCE_DIR / "examples" / "python" / script),
          "--daemon", os.environ["TC_DAEMON"], "--domain", str(private_domain()), "--out", str(out)],
         capture_output=True, text=True, timeout=150)
     assert run.returncode == 0, run.stdout + run.stderr
+    return run
+
+
+def test_drop_ball_comes_to_rest_on_the_box(workdir):
+    out = workdir / "out"
+    run = run_example("drop_ball.py", out)
     assert "outputs in" in run.stdout
     assert (out / "drop_ball.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with open(out / "trajectory.csv") as f:
@@ -42,11 +49,7 @@ def test_tool_drag_reports_the_forces_on_a_rigid_stl_tool(workdir):
     """examples/python/tool_drag.py: a surface object (probe.stl) moved by a script into and
     across a soft organ. Checked here from its CSV, apart from the script's own checks."""
     out = workdir / "out"
-    run = subprocess.run(
-        [sys.executable, str(SOURCE_DIR / "examples" / "python" / "tool_drag.py"),
-         "--daemon", os.environ["TC_DAEMON"], "--domain", str(private_domain()), "--out", str(out)],
-        capture_output=True, text=True, timeout=150)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run_example("tool_drag.py", out)
     assert (out / "tool_drag.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with open(out / "tool_forces.csv") as f:
         rows = list(csv.DictReader(f))

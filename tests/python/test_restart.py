@@ -3,23 +3,18 @@ does: nothing by hand. Its topologies are transient-local, so the new service ge
 back and reports them REGISTERED again (status events); with resend_after, wait_forces
 re-publishes the unanswered frame's states, and the run goes on. The same states give
 the same forces bit for bit before and after the restart."""
-import tempfile
 import time
 
 import numpy as np
 import pytest
 
 import tetcollide
-from conftest import Daemon, ball_at
+from conftest import ball_at, running_daemon
 
 
 @pytest.fixture
 def own_daemon(domain, tmp_base):
-    with tempfile.TemporaryDirectory(prefix="python-restart-", dir=tmp_base) as d:
-        daemon = Daemon(d, domain)
-        daemon.start()
-        yield daemon
-        daemon.stop()
+    yield from running_daemon(domain, tmp_base, "python-restart-")
 
 
 def test_the_run_survives_a_daemon_restart(own_daemon, ball, box):

@@ -16,8 +16,9 @@
 #include <sstream>
 #include <thread>
 
-#include "daemon_process.hpp"
+#include "daemon_test.hpp"
 #include "recording.hpp"
+#include "replay_options.hpp"
 #include "replayer.hpp"
 #include "sanitizer.hpp"
 #include "scenes.hpp"
@@ -46,27 +47,12 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-class Faults : public ::testing::Test {
+class Faults : public DaemonTest {
  protected:
-  void SetUp() override {
-    dir_ = make_temp_dir("reliability");
-    daemon_ = std::make_unique<DaemonProcess>(dir_, domain_, kConfig);
-    ASSERT_TRUE(daemon_->start()) << daemon_->log_text();
-  }
-  void TearDown() override {
-    if (HasFailure() && daemon_) std::cerr << "---- daemon log ----\n" << daemon_->log_text();
-    daemon_.reset();
-    std::filesystem::remove_all(dir_);
-  }
+  void SetUp() override { start_daemon("reliability", kConfig); }
   std::unique_ptr<Client> connect(const std::string& scene,
                                   std::chrono::milliseconds resend = 0ms) {
-    client::Options o;
-    o.domain = domain_;
-    o.scene = scene;
-    o.resend_after = resend;
-    auto c = Client::connect(o);
-    EXPECT_TRUE(c->wait_for_service(20s)) << "no READY service on domain " << domain_;
-    return c;
+    return DaemonTest::connect(scene, resend, 20s);
   }
   /// Starts `service_load --worker` (a streaming client process) in `scene`; waits until
   /// it streams.
@@ -84,10 +70,6 @@ class Faults : public ::testing::Test {
     s << in.rdbuf();
     return s.str();
   }
-
-  std::uint32_t domain_ = private_domain();
-  std::filesystem::path dir_;
-  std::unique_ptr<DaemonProcess> daemon_;
 };
 
 /// Two overlapping boxes moving a little every frame (contact every frame).
@@ -204,17 +186,9 @@ TEST_F(Faults, KilledClientsObjectsAreDroppedWithinTheLease) {
 // client's transient-local writer (the application never registers again), and every
 // frame's forces match the recording bit for bit.
 TEST_F(Faults, ServiceKilledAndRestartedTenTimes) {
-  const char* recordings = std::getenv("TC_RECORDINGS");
-  ASSERT_NE(recordings, nullptr);
-  const auto records =
-      replay::read_recording(std::filesystem::path(recordings) / "two_boxes.jsonl");
+  const auto records = replay::read_recording(recordings_dir() / "two_boxes.jsonl");
   ASSERT_TRUE(records) << records.error().message;
-  replay::ReplayOptions o;
-  o.domain = domain_;
-  o.rate = 0.0;
-  o.check = true;
-  o.frame_timeout = 30s;
-  o.resend_after = 300ms;
+  replay::ReplayOptions o = checked_replay_options(domain_);
   int restarts = 0;
   std::vector<double> recovery_ms;
   Clock::time_point restarted_at{};
