@@ -45,7 +45,7 @@ int gmsh_element_node_count(int type) noexcept {
 namespace {
 
 // The readers' shared scanning and error helpers (core/io/scan.hpp).
-using namespace io_detail;  // NOLINT(google-build-using-namespace)
+using namespace io_detail;
 
 constexpr std::uint64_t kMaxCount = static_cast<std::uint64_t>(std::numeric_limits<Index>::max());
 

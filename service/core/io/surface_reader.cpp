@@ -22,7 +22,7 @@ namespace tc {
 namespace {
 
 // The readers' shared scanning and error helpers (core/io/scan.hpp).
-using namespace io_detail;  // NOLINT(google-build-using-namespace)
+using namespace io_detail;
 
 constexpr std::uint64_t kMaxIndex = static_cast<std::uint64_t>(std::numeric_limits<Index>::max());
 

@@ -24,7 +24,7 @@ namespace tc {
 namespace {
 
 // The readers' shared scanning and error helpers (core/io/scan.hpp).
-using namespace io_detail;  // NOLINT(google-build-using-namespace)
+using namespace io_detail;
 
 /// The next line with content once its '#' comment is removed.
 bool next_record(LineScanner& scan, std::string_view& line) {
