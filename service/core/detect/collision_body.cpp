@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -120,7 +121,7 @@ Csr invert(const std::vector<std::array<Index, K>>& owned, Index num_items) {
 // ------------------------------------------------------------------------ CollisionBody
 
 CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology)
-    : tets_(tets.begin(), tets.end()), num_nodes_(topology.num_nodes), edges_(topology.edges) {
+    : tets_(tets), num_nodes_(topology.num_nodes), edges_(topology.edges) {
   if (topology.num_tets != static_cast<Index>(tets.size()))
     throw std::invalid_argument("CollisionBody: topology has " + std::to_string(topology.num_tets) +
                                 " tets, mesh has " + std::to_string(tets.size()));
@@ -130,25 +131,39 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
         throw std::invalid_argument("CollisionBody: tet " + std::to_string(t) + " uses node " +
                                     std::to_string(v) + " outside [0, " +
                                     std::to_string(num_nodes_) + ")");
-  node_tets_ = topology.node_tets;
-  if (node_tets_.rows() != num_nodes_) {
+  node_tets_ = &topology.node_tets;
+  if (node_tets_->rows() != num_nodes_) {
     std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
-    node_tets_ = invert(owned, num_nodes_);
+    owned_node_tets_ = invert(owned, num_nodes_);
+    node_tets_ = &owned_node_tets_;
   }
-  // Edge ids by a binary search within the edges of the smaller node (the edges are
-  // sorted, so each node's edges (u, *) are contiguous).
-  std::vector<Index> edge_begin(static_cast<std::size_t>(num_nodes_) + 1, 0);
-  for (const auto& e : edges_) {
+  for (const auto& e : edges_)
     if (e[0] < 0 || e[0] >= num_nodes_)
       throw std::invalid_argument("CollisionBody: topology edge node " + std::to_string(e[0]) +
                                   " outside [0, " + std::to_string(num_nodes_) + ")");
-    ++edge_begin[static_cast<std::size_t>(e[0]) + 1];
+  // Every edge of every tet must be in the topology: checked now, the tables made on the
+  // first edge scan (prepare_edges()).
+  std::vector<std::array<Index, 6>> tet_edges;
+  if (const std::optional<std::size_t> missing = find_tet_edges(tet_edges)) {
+    const std::size_t t = *missing / 6;
+    const int k = static_cast<int>(*missing % 6);
+    Index u = tets_[t][kTetEdges[k][0]];
+    Index v = tets_[t][kTetEdges[k][1]];
+    if (u > v) std::swap(u, v);
+    throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
+                                std::to_string(v) + ") of tet " + std::to_string(t) +
+                                " is not in the topology");
   }
+}
+
+std::optional<std::size_t> CollisionBody::find_tet_edges(
+    std::vector<std::array<Index, 6>>& tet_edges) const {
+  // Edge ids by a binary search within the edges of the smaller node (the edges are
+  // sorted, so each node's edges (u, *) are contiguous).
+  std::vector<Index> edge_begin(static_cast<std::size_t>(num_nodes_) + 1, 0);
+  for (const auto& e : edges_) ++edge_begin[static_cast<std::size_t>(e[0]) + 1];
   for (std::size_t i = 0; i + 1 < edge_begin.size(); ++i) edge_begin[i + 1] += edge_begin[i];
-  tet_edges_.resize(tets_.size());
-  bool missing = false;
-  std::size_t missing_tet = 0;
-  int missing_edge = 0;
+  tet_edges.resize(tets_.size());
   detail::for_chunks(tets_.size(), 8192, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t t = begin; t < end; ++t)
       for (int k = 0; k < 6; ++k) {
@@ -158,29 +173,20 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
         const auto last = edges_.begin() + edge_begin[u + 1];
         const std::array<Index, 2> key{u, v};
         const auto it = std::lower_bound(first, last, key);
-        if (it == last || *it != key) {
-          tet_edges_[t][k] = -1;
-          continue;
-        }
-        tet_edges_[t][k] = static_cast<Index>(it - edges_.begin());
+        tet_edges[t][k] = it == last || *it != key ? -1 : static_cast<Index>(it - edges_.begin());
       }
   });
-  for (std::size_t t = 0; t < tets_.size() && !missing; ++t)
-    for (int k = 0; k < 6 && !missing; ++k)
-      if (tet_edges_[t][k] < 0) {
-        missing = true;
-        missing_tet = t;
-        missing_edge = k;
-      }
-  if (missing) {
-    Index u = tets_[missing_tet][kTetEdges[missing_edge][0]];
-    Index v = tets_[missing_tet][kTetEdges[missing_edge][1]];
-    if (u > v) std::swap(u, v);
-    throw std::invalid_argument("CollisionBody: edge (" + std::to_string(u) + ", " +
-                                std::to_string(v) + ") of tet " + std::to_string(missing_tet) +
-                                " is not in the topology");
-  }
+  for (std::size_t t = 0; t < tets_.size(); ++t)
+    for (std::size_t k = 0; k < 6; ++k)
+      if (tet_edges[t][k] < 0) return 6 * t + k;
+  return std::nullopt;
+}
+
+void CollisionBody::prepare_edges() {
+  if (edges_ready_) return;
+  (void)find_tet_edges(tet_edges_);  // the constructor found every edge
   edge_tets_ = invert(tet_edges_, static_cast<Index>(edges_.size()));
+  edges_ready_ = true;
 }
 
 namespace {

@@ -671,10 +671,14 @@ void Detector::mark_tets(PairContacts& out) {
     rows_b_.items[counts_[geom_b_.slot[p.tet_b]]++] = geom_a_.slot[p.tet_a];
 }
 
-void Detector::find_intrusions(const CollisionBody& a, const CollisionBody& b, PairContacts& out,
+void Detector::find_intrusions(CollisionBody& a, CollisionBody& b, PairContacts& out,
                                const EdgeNeed& need_edges) {
   std::array<bool, 2> edges = {options_.intruding_edges, options_.intruding_edges};
   if (options_.intruding_edges && need_edges && !out.overlapping.empty()) edges = need_edges(out);
+  if (!out.overlapping.empty()) {
+    if (edges[0]) a.prepare_edges();
+    if (edges[1]) b.prepare_edges();
+  }
   if (!out.overlapping.empty() && (options_.intruding_nodes || edges[0] || edges[1])) {
     for (int side = 0; side < 2; ++side) {
       const CollisionBody& x = side == 0 ? a : b;
@@ -774,7 +778,7 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
           Index best = std::numeric_limits<Index>::max();
           Eigen::Vector4d bary = Eigen::Vector4d::Zero();
           const std::uint64_t now = ++marks.now;
-          for (const Index t : x.node_tets_.row(node)) {
+          for (const Index t : x.node_tets_->row(node)) {
             const Index r = row_of_[t];
             if (r < 0) continue;
             for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {

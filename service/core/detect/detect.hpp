@@ -85,6 +85,8 @@ class CollisionBody {
  public:
   /// @param[in] tets      m tets, node indices in [0, topology.num_nodes) (validate first)
   /// @param[in] topology  the topology of exactly these tets (build_topology)
+  /// Both are read, not copied (a large organ's tables are tens of MB): they must outlive
+  /// the body and stay unchanged.
   /// @throws std::invalid_argument when the tets and the topology disagree
   CollisionBody(std::span<const Tet> tets, const Topology& topology);
 
@@ -134,6 +136,15 @@ class CollisionBody {
   /// listed tets that do not have them yet. Not thread-safe for one body.
   void ensure_bounds(std::span<const Index> tets, bool spheres);
 
+  /// Makes the tables of the tets' edges the intruding-edge scan reads (once per body:
+  /// about 50 bytes a tet, so an object never answered by segments never holds them).
+  /// detect() calls it when it needs them; call it yourself before running detect() with
+  /// intruding edges on several pairs sharing this body concurrently. Not thread-safe for
+  /// one body.
+  void prepare_edges();
+  /// Whether prepare_edges() has made the tables.
+  [[nodiscard]] bool edges_prepared() const { return edges_ready_; }
+
   /// Tets that take part in no contact until the next call (sorted, duplicates
   /// allowed; empty: every tet takes part): Detector::detect() drops the broad-phase
   /// candidates with one of them, so they overlap nothing, hold no node or edge of the
@@ -155,12 +166,18 @@ class CollisionBody {
  private:
   friend class Detector;
 
-  std::vector<Tet> tets_;
+  std::span<const Tet> tets_;  ///< the caller's
   Index num_nodes_ = 0;
-  std::vector<std::array<Index, 2>> edges_;
-  Csr node_tets_;                                ///< n rows: tets using the node
+  std::span<const std::array<Index, 2>> edges_;  ///< the topology's
+  const Csr* node_tets_ = nullptr;  ///< n rows: tets using the node (the topology's, or owned)
+  Csr owned_node_tets_;             ///< made when the topology has no node_tets
+  // prepare_edges():
+  bool edges_ready_ = false;
   Csr edge_tets_;                                ///< edge rows: tets using the edge
   std::vector<std::array<Index, 6>> tet_edges_;  ///< m x 6: edge ids (kTetEdges order)
+  /// tet_edges (m x 6) from the topology's edges; the first entry (6 t + k) whose edge is
+  /// not there (its id then -1), if any.
+  std::optional<std::size_t> find_tet_edges(std::vector<std::array<Index, 6>>& tet_edges) const;
 
   /// Spatial clusters, made once per topology from the first positions: tets sorted
   /// along a Morton curve of their centroids and cut into runs of 64; each frame a
@@ -350,7 +367,7 @@ class Detector {
   void mark_tets(PairContacts& out);
   /// The feature scans: the intruding nodes and edges of each body in the other, as the
   /// options and `need_edges` ask, into `out`.
-  void find_intrusions(const CollisionBody& a, const CollisionBody& b, PairContacts& out,
+  void find_intrusions(CollisionBody& a, CollisionBody& b, PairContacts& out,
                        const EdgeNeed& need_edges);
   /// The tets of `body` whose cluster box meets `region` (every tet without the cluster
   /// cull), into `list`.

@@ -21,7 +21,7 @@ std::uint64_t spread_bits(std::uint64_t v) {
 
 }  // namespace
 
-std::vector<Index> tets_in_morton_order(const Positions& positions, const std::vector<Tet>& tets,
+std::vector<Index> tets_in_morton_order(const Positions& positions, std::span<const Tet> tets,
                                         const Eigen::Vector3d& lo, double extent) {
   constexpr double kTop = double((1 << 21) - 1);
   const double to_grid = extent > 0.0 ? kTop / extent : 0.0;
@@ -46,7 +46,7 @@ std::vector<Index> tets_in_morton_order(const Positions& positions, const std::v
   return order;
 }
 
-std::vector<Index> tets_in_morton_order(const Positions& positions, const std::vector<Tet>& tets) {
+std::vector<Index> tets_in_morton_order(const Positions& positions, std::span<const Tet> tets) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
   for (Eigen::Index i = 0; i < positions.cols(); ++i)

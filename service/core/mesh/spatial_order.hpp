@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <span>
 #include <vector>
 
 #include "core/mesh/tet_mesh.hpp"
@@ -13,10 +14,10 @@ namespace tc {
 /// corner last; ties by tet index, so the order depends on the positions only. Consecutive
 /// tets in this order mostly share nodes: loops over tets in it read the positions with
 /// far fewer cache misses than a mesher's element order.
-std::vector<Index> tets_in_morton_order(const Positions& positions, const std::vector<Tet>& tets,
+std::vector<Index> tets_in_morton_order(const Positions& positions, std::span<const Tet> tets,
                                         const Eigen::Vector3d& lo, double extent);
 
 /// The same over the bounding cube of the finite positions.
-std::vector<Index> tets_in_morton_order(const Positions& positions, const std::vector<Tet>& tets);
+std::vector<Index> tets_in_morton_order(const Positions& positions, std::span<const Tet> tets);
 
 }  // namespace tc
