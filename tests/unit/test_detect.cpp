@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <set>
@@ -1443,6 +1444,27 @@ TEST(CollisionBody, EdgeTablesAreMadeForTheFirstEdgeScanOnly) {
   ASSERT_FALSE(want.edges_a_in_b.empty());
   ASSERT_FALSE(want.edges_b_in_a.empty());
   expect_identical(c, want);
+}
+
+// A topology without node->tet incidence (one made by hand): the body makes its own, and a
+// body moved elsewhere still reads it (the incidence is not a pointer into the old place).
+TEST(CollisionBody, MadeIncidenceSurvivesAMove) {
+  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
+  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
+  Topology bare = a.topo;
+  bare.node_tets = Csr{};
+  auto first = std::make_unique<CollisionBody>(a.mesh.tets, bare);
+  CollisionBody moved(std::move(*first));
+  first.reset();
+  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
+  moved.set_positions(a.mesh.positions);
+  ba.set_positions(a.mesh.positions);
+  bb.set_positions(b.mesh.positions);
+  PairContacts want, got;
+  Detector().detect(ba, bb, want);
+  ASSERT_FALSE(want.nodes_a_in_b.empty());
+  Detector().detect(moved, bb, got);
+  expect_identical(got, want);
 }
 
 TEST(CollisionBody, RejectsMismatchedInput) {

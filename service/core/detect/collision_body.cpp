@@ -131,11 +131,11 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
         throw std::invalid_argument("CollisionBody: tet " + std::to_string(t) + " uses node " +
                                     std::to_string(v) + " outside [0, " +
                                     std::to_string(num_nodes_) + ")");
-  node_tets_ = &topology.node_tets;
-  if (node_tets_->rows() != num_nodes_) {
+  if (topology.node_tets.rows() == num_nodes_) {
+    topology_node_tets_ = &topology.node_tets;
+  } else {
     std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
     owned_node_tets_ = invert(owned, num_nodes_);
-    node_tets_ = &owned_node_tets_;
   }
   for (const auto& e : edges_)
     if (e[0] < 0 || e[0] >= num_nodes_)

@@ -778,7 +778,7 @@ void Detector::intruding_nodes(const CollisionBody& x, std::span<const Index> ma
           Index best = std::numeric_limits<Index>::max();
           Eigen::Vector4d bary = Eigen::Vector4d::Zero();
           const std::uint64_t now = ++marks.now;
-          for (const Index t : x.node_tets_->row(node)) {
+          for (const Index t : x.node_tets().row(node)) {
             const Index r = row_of_[t];
             if (r < 0) continue;
             for (Index k = rows.offsets[r]; k < rows.offsets[r + 1]; ++k) {

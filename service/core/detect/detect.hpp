@@ -169,8 +169,13 @@ class CollisionBody {
   std::span<const Tet> tets_;  ///< the caller's
   Index num_nodes_ = 0;
   std::span<const std::array<Index, 2>> edges_;  ///< the topology's
-  const Csr* node_tets_ = nullptr;  ///< n rows: tets using the node (the topology's, or owned)
-  Csr owned_node_tets_;             ///< made when the topology has no node_tets
+  /// n rows: the tets using each node, the topology's (null: owned_node_tets_, made when
+  /// the topology has none). Through node_tets() only: a moved body keeps it right.
+  const Csr* topology_node_tets_ = nullptr;
+  Csr owned_node_tets_;
+  [[nodiscard]] const Csr& node_tets() const {
+    return topology_node_tets_ != nullptr ? *topology_node_tets_ : owned_node_tets_;
+  }
   // prepare_edges():
   bool edges_ready_ = false;
   Csr edge_tets_;                                ///< edge rows: tets using the edge
