@@ -38,8 +38,9 @@ class DaemonTest : public ::testing::Test {
     std::filesystem::remove_all(dir_);
   }
 
-  /// A client of scene `scene` on this test's domain, once the service is ready (a test
-  /// failure, not a fatal one, when it is not within `ready`).
+  /// A client of scene `scene` on this test's domain, once the service is ready and its
+  /// reader of the states is matched (a state written before that reaches nobody); a test
+  /// failure, not a fatal one, when they are not within `ready`.
   std::unique_ptr<client::Client> connect(
       const std::string& scene, std::chrono::milliseconds resend = std::chrono::milliseconds(0),
       std::chrono::milliseconds ready = std::chrono::seconds(10)) {
@@ -49,6 +50,7 @@ class DaemonTest : public ::testing::Test {
     o.resend_after = resend;
     auto c = client::Client::connect(o);
     EXPECT_TRUE(c->wait_for_service(ready)) << "no READY service on domain " << domain_;
+    EXPECT_TRUE(c->wait_for_readers(1, ready)) << "no reader of the states on domain " << domain_;
     return c;
   }
 

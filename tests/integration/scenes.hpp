@@ -53,13 +53,15 @@ struct TwoBoxes {
   [[nodiscard]] std::vector<double> pos_b(std::int64_t f) const {
     return translated(b, {-0.002 * static_cast<double>(f % 50), 0.0, 0.0});
   }
-  /// Registers both as "a" and "b" (default parameters) and waits up to 10 s for each;
-  /// true when both were registered.
+  /// Registers both as "a" and "b" (default parameters) and waits up to 10 s for each,
+  /// then for a reader of the states (a state written before the service's reader is
+  /// matched reaches nobody: client.hpp's first example); true when all three came.
   bool register_with(client::Client& c) const {
     c.register_object("a", a, {});
     c.register_object("b", b, {});
     return c.wait_registered("a", std::chrono::seconds(10)).ok &&
-           c.wait_registered("b", std::chrono::seconds(10)).ok;
+           c.wait_registered("b", std::chrono::seconds(10)).ok &&
+           c.wait_for_readers(1, std::chrono::seconds(10));
   }
 };
 
