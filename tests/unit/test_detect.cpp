@@ -67,6 +67,19 @@ struct Object {
       : mesh(std::move(m)), topo(build_topology(mesh.tets, mesh.num_nodes())) {}
 };
 
+/// A 4^3-cell unit box and a 3^3-cell one overlapping its corner: nodes and edges of each
+/// inside the other, and a few hundred overlapping pairs.
+struct CornerBoxes {
+  Object a{test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1))};
+  Object b{test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3))};
+  /// A body of `o` (a or b, which it reads: the boxes must outlive it) at its positions.
+  static CollisionBody body(const Object& o) {
+    CollisionBody x(o.mesh.tets, o.topo);
+    x.set_positions(o.mesh.positions);
+    return x;
+  }
+};
+
 PairContacts run(const Object& a, const Object& b, DetectOptions opt = {},
                  DetectStats* stats = nullptr) {
   return detect_pair(a.mesh.positions, a.mesh.tets, a.topo, b.mesh.positions, b.mesh.tets, b.topo,
@@ -443,11 +456,10 @@ TEST(Detect, OptionsSwitchOffNodesAndEdges) {
 TEST(Detect, EdgeNeedLeavesOutTheDirectionsItDeclines) {
   // The pipeline asks, once the overlaps are known, which directions the response will
   // answer with segments; the other directions' edges are not computed, the rest is the same.
-  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
-  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
-  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
-  ba.set_positions(a.mesh.positions);
-  bb.set_positions(b.mesh.positions);
+  const CornerBoxes boxes;
+  const Object& a = boxes.a;
+  const Object& b = boxes.b;
+  CollisionBody ba = CornerBoxes::body(a), bb = CornerBoxes::body(b);
   Detector detector;
   PairContacts full;
   detector.detect(ba, bb, full);
@@ -1413,11 +1425,10 @@ TEST(Detect, LeftOutTetsTakePartInNothing) {
 // scan, never for an object only answered by points: the load test's 8 organs of 329k tets
 // held 140 MB of them. Made late, they give the edges that tables made up front give.
 TEST(CollisionBody, EdgeTablesAreMadeForTheFirstEdgeScanOnly) {
-  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
-  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
-  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
-  ba.set_positions(a.mesh.positions);
-  bb.set_positions(b.mesh.positions);
+  const CornerBoxes boxes;
+  const Object& a = boxes.a;
+  const Object& b = boxes.b;
+  CollisionBody ba = CornerBoxes::body(a), bb = CornerBoxes::body(b);
   DetectOptions points;
   points.intruding_edges = false;
   Detector by_points(points);
@@ -1434,11 +1445,9 @@ TEST(CollisionBody, EdgeTablesAreMadeForTheFirstEdgeScanOnly) {
   EXPECT_FALSE(bb.edges_prepared());
   detector.detect(ba, bb, c);
   EXPECT_TRUE(bb.edges_prepared());
-  CollisionBody ready_a(a.mesh.tets, a.topo), ready_b(b.mesh.tets, b.topo);
+  CollisionBody ready_a = CornerBoxes::body(a), ready_b = CornerBoxes::body(b);
   ready_a.prepare_edges();
   ready_b.prepare_edges();
-  ready_a.set_positions(a.mesh.positions);
-  ready_b.set_positions(b.mesh.positions);
   PairContacts want;
   Detector().detect(ready_a, ready_b, want);
   ASSERT_FALSE(want.edges_a_in_b.empty());
@@ -1449,17 +1458,16 @@ TEST(CollisionBody, EdgeTablesAreMadeForTheFirstEdgeScanOnly) {
 // A topology without node->tet incidence (one made by hand): the body makes its own, and a
 // body moved elsewhere still reads it (the incidence is not a pointer into the old place).
 TEST(CollisionBody, MadeIncidenceSurvivesAMove) {
-  const Object a(test::structured_box(4, 4, 4, Vector3d(0, 0, 0), Vector3d(1, 1, 1)));
-  const Object b(test::structured_box(3, 3, 3, Vector3d(0.5, 0.4, 0.3), Vector3d(1.5, 1.4, 1.3)));
+  const CornerBoxes boxes;
+  const Object& a = boxes.a;
+  const Object& b = boxes.b;
   Topology bare = a.topo;
   bare.node_tets = Csr{};
   auto first = std::make_unique<CollisionBody>(a.mesh.tets, bare);
   CollisionBody moved(std::move(*first));
   first.reset();
-  CollisionBody ba(a.mesh.tets, a.topo), bb(b.mesh.tets, b.topo);
   moved.set_positions(a.mesh.positions);
-  ba.set_positions(a.mesh.positions);
-  bb.set_positions(b.mesh.positions);
+  CollisionBody ba = CornerBoxes::body(a), bb = CornerBoxes::body(b);
   PairContacts want, got;
   Detector().detect(ba, bb, want);
   ASSERT_FALSE(want.nodes_a_in_b.empty());

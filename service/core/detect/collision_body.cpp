@@ -103,7 +103,7 @@ Aabb box_of_finite_points(const ForEachPoint& for_each_point) {
 
 /// CSR of item -> owners from a per-owner list of items.
 template <std::size_t K>
-Csr invert(const std::vector<std::array<Index, K>>& owned, Index num_items) {
+Csr invert(std::span<const std::array<Index, K>> owned, Index num_items) {
   Csr csr;
   csr.offsets.assign(static_cast<std::size_t>(num_items) + 1, 0);
   for (const auto& row : owned)
@@ -134,8 +134,7 @@ CollisionBody::CollisionBody(std::span<const Tet> tets, const Topology& topology
   if (topology.node_tets.rows() == num_nodes_) {
     topology_node_tets_ = &topology.node_tets;
   } else {
-    std::vector<std::array<Index, 4>> owned(tets_.begin(), tets_.end());
-    owned_node_tets_ = invert(owned, num_nodes_);
+    owned_node_tets_ = invert(tets_, num_nodes_);
   }
   for (const auto& e : edges_)
     if (e[0] < 0 || e[0] >= num_nodes_)
@@ -185,7 +184,8 @@ std::optional<std::size_t> CollisionBody::find_tet_edges(
 void CollisionBody::prepare_edges() {
   if (edges_ready_) return;
   (void)find_tet_edges(tet_edges_);  // the constructor found every edge
-  edge_tets_ = invert(tet_edges_, static_cast<Index>(edges_.size()));
+  edge_tets_ =
+      invert(std::span<const std::array<Index, 6>>(tet_edges_), static_cast<Index>(edges_.size()));
   edges_ready_ = true;
 }
 

@@ -675,11 +675,9 @@ void Detector::find_intrusions(CollisionBody& a, CollisionBody& b, PairContacts&
                                const EdgeNeed& need_edges) {
   std::array<bool, 2> edges = {options_.intruding_edges, options_.intruding_edges};
   if (options_.intruding_edges && need_edges && !out.overlapping.empty()) edges = need_edges(out);
-  if (!out.overlapping.empty()) {
+  if (!out.overlapping.empty() && (options_.intruding_nodes || edges[0] || edges[1])) {
     if (edges[0]) a.prepare_edges();
     if (edges[1]) b.prepare_edges();
-  }
-  if (!out.overlapping.empty() && (options_.intruding_nodes || edges[0] || edges[1])) {
     for (int side = 0; side < 2; ++side) {
       const CollisionBody& x = side == 0 ? a : b;
       const CollisionBody& y = side == 0 ? b : a;
