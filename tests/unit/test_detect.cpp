@@ -1296,6 +1296,39 @@ TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
   EXPECT_GT(kept_slow, slow / 4) << "and serve again once it is slow";
 }
 
+// A tool dragged steadily (1 mm a frame along x, 0.25 mm along y, while it sinks 0.02 mm:
+// a hand at 1 m/s at 1 kHz, far beyond the margin of tets 2-6 cm across), with the
+// direction turned back halfway: kept pairs made along the motion serve most frames, and
+// the candidates are the tree's throughout (as A and as B).
+TEST(Detector, KeptPairsFollowSteadilyDraggedContact) {
+  for (const bool tool_is_a : {true, false}) {
+    SCOPED_TRACE(tool_is_a ? "tool=a" : "tool=b");
+    ToolOnSlab scene;
+    auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
+    body_large.set_positions(large.mesh.positions);
+    DetectOptions off;
+    off.keep_pairs = false;
+    Detector with, without(off);
+    int kept = 0, rebuilt = 0;
+    const int frames = 200;
+    for (int frame = 0; frame < frames; ++frame) {
+      SCOPED_TRACE(frame);
+      if (frame > 0) body_large.reuse_positions();
+      const int along = frame < frames / 2 ? frame : frames - frame;  // back from the middle
+      const Object tool(moved(
+          tool0, Matrix3d::Identity(),
+          Vector3d(0.35 + 1e-3 * along, 0.4 + 2.5e-4 * along, 0.25 + 0.06 - 0.02 - 2e-5 * frame)));
+      body_tool.set_positions(tool.mesh.positions);
+      DetectStats st, st_without;
+      expect_same_detection(with, without, tool_is_a ? body_tool : body_large,
+                            tool_is_a ? body_large : body_tool, st, st_without);
+      kept += st.pairs_kept ? 1 : 0;
+      rebuilt += st.pairs_rebuilt ? 1 : 0;
+    }
+    EXPECT_GT(kept, frames * 3 / 4) << kept << " frames served, lists made " << rebuilt;
+  }
+}
+
 // One Detector over several object pairs in turn (as the pipeline runs it): each pair
 // keeps its own pairs, and every call gives the tree's candidates.
 TEST(Detector, KeptPairsOfSeveralObjectPairsOnOneDetector) {

@@ -257,6 +257,12 @@ struct Detector::KeptPairs {
   std::uint64_t used = 0;   ///< last use (the Detector's count of calls)
   AabbTree tree;            ///< over B's padded boxes, when made
   std::vector<Index> near;  ///< scratch
+  /// Each body's box centre at this object pair's last call, and how far it moved in each
+  /// of the last two calls: what a list made now is stretched along (steady_sweep()).
+  std::array<Eigen::Vector3d, 2> centre{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  std::array<Eigen::Vector3d, 2> step{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  std::array<Eigen::Vector3d, 2> step_before{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  int centres_seen = 0;  ///< calls whose centres are recorded (counted up to 2)
 };
 
 namespace {
@@ -275,6 +281,26 @@ constexpr int kKeptPause = 64;
 constexpr int kKeptMaxPauseShift = 4;  ///< pauses in a row grow to 16 kKeptPause
 /// Object pairs whose kept pairs are held (the least recently used goes first).
 constexpr std::size_t kKeptPairsHeld = 16;
+/// A body whose box moved the same way in each of the last two calls (a dragged tool, a
+/// sliding block) has its kept boxes stretched along that motion for this many calls
+/// more, so that a list outlives motion far beyond the margin; at most kKeptMaxSweep mean
+/// tet extents near the contact per axis (a jump is not steady motion).
+constexpr double kKeptSteps = 16.0;
+constexpr double kKeptMaxSweep = 2.0;
+
+/// kKeptSteps calls of the motion both `step` and `before` show, per axis: the smaller of
+/// the two moves where they have the same sign, else none; at most `cap` either way.
+Eigen::Vector3d steady_sweep(const Eigen::Vector3d& step, const Eigen::Vector3d& before,
+                             double cap) {
+  Eigen::Vector3d sweep = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 3; ++i) {
+    const double now = step[i], then = before[i];
+    if (!(now * then > 0.0)) continue;  // opposite, still, or not finite
+    const double move = now > 0.0 ? std::min(now, then) : std::max(now, then);
+    sweep[i] = std::clamp(kKeptSteps * move, -cap, cap);
+  }
+  return sweep;
+}
 
 }  // namespace
 
@@ -292,6 +318,15 @@ Detector::KeptPairs* Detector::kept_of(const CollisionBody& a, const CollisionBo
     k->b = &b;
   }
   k->used = ++kept_calls_;
+  const std::array<const CollisionBody*, 2> bodies = {&a, &b};
+  for (std::size_t s = 0; s < 2; ++s) {
+    const Eigen::Vector3d centre = 0.5 * (bodies[s]->box().lo + bodies[s]->box().hi);
+    k->step_before[s] = k->step[s];
+    k->step[s] =
+        k->centres_seen > 0 ? Eigen::Vector3d(centre - k->centre[s]) : Eigen::Vector3d::Zero();
+    k->centre[s] = centre;
+  }
+  k->centres_seen = std::min(k->centres_seen + 1, 2);
   return k;
 }
 
@@ -355,19 +390,30 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
         extent += (raw.hi - raw.lo).maxCoeff();
         ++count;
       }
-    const double margin = count > 0 ? k->fraction * extent / static_cast<double>(count) : 0.0;
+    const double mean_extent = count > 0 ? extent / static_cast<double>(count) : 0.0;
+    const double margin = k->fraction * mean_extent;
     if (!(margin > 0.0) || !std::isfinite(margin)) return false;
     const Eigen::Vector3d pad = Eigen::Vector3d::Constant(margin);
-    const Aabb region{cull.lo - pad, cull.hi + pad};
+    // Steady motion of either body (two calls seen moving the same way): its boxes are
+    // stretched along it, and the region by both (the overlap box of two translated
+    // boxes lies within the overlap box stretched by the two translations).
+    std::array<Eigen::Vector3d, 2> sweep{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    if (k->centres_seen >= 2)
+      for (std::size_t s = 0; s < 2; ++s)
+        sweep[s] = steady_sweep(k->step[s], k->step_before[s], kKeptMaxSweep * mean_extent);
+    const Aabb region{cull.lo - pad + sweep[0].cwiseMin(sweep[1]).cwiseMin(0.0),
+                      cull.hi + pad + sweep[0].cwiseMax(sweep[1]).cwiseMax(0.0)};
     for (std::size_t s = 0; s < 2; ++s) {
       for (const Index t : k->tets[s]) k->slot[s][static_cast<std::size_t>(t)] = -1;
       CollisionBody& body = *bodies[s];
       gather_near(body, region, k->near);
       body.ensure_bounds(k->near, false);
       filter_tets(body, k->near, region, k->tets[s], k->boxes[s]);
+      const Eigen::Vector3d lo_pad = pad - sweep[s].cwiseMin(0.0);
+      const Eigen::Vector3d hi_pad = pad + sweep[s].cwiseMax(0.0);
       for (Aabb& box : k->boxes[s]) {
-        box.lo -= pad;
-        box.hi += pad;
+        box.lo -= lo_pad;
+        box.hi += hi_pad;
       }
       k->slot[s].resize(body.tets_.size(), -1);
       for (std::size_t i = 0; i < k->tets[s].size(); ++i)
