@@ -1270,15 +1270,24 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
   }
 }
 
+/// ToolOnSlab with the large object at rest, and two detectors: kept pairs on (`with`) and
+/// off (`without`, every call served by a tree).
+struct KeptAgainstTree {
+  ToolOnSlab objects;
+  std::array<Detector, 2> detectors{Detector(), Detector([] {
+                                      DetectOptions off;
+                                      off.keep_pairs = false;
+                                      return off;
+                                    }())};
+  KeptAgainstTree() { objects.body_large.set_positions(objects.large.mesh.positions); }
+};
+
 // Contact that moves too fast for kept pairs: they sit out (the tree serves) and come back
 // once it slows down; the candidates are the tree's throughout.
 TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
-  ToolOnSlab scene;
-  auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
-  body_large.set_positions(large.mesh.positions);
-  DetectOptions off;
-  off.keep_pairs = false;
-  Detector with, without(off);
+  KeptAgainstTree scene;
+  auto& [with, without] = scene.detectors;
+  auto& [large, tool0, tool_rest, body_tool, body_large] = scene.objects;
   int kept_fast = 0, kept_slow = 0;
   const int fast = 40, slow = 120;
   double x = 0.3;
@@ -1303,12 +1312,9 @@ TEST(Detector, KeptPairsSitOutWhileContactMovesFastAndComeBack) {
 TEST(Detector, KeptPairsFollowSteadilyDraggedContact) {
   for (const bool tool_is_a : {true, false}) {
     SCOPED_TRACE(tool_is_a ? "tool=a" : "tool=b");
-    ToolOnSlab scene;
-    auto& [large, tool0, tool_rest, body_tool, body_large] = scene;
-    body_large.set_positions(large.mesh.positions);
-    DetectOptions off;
-    off.keep_pairs = false;
-    Detector with, without(off);
+    KeptAgainstTree scene;
+    auto& [with, without] = scene.detectors;
+    auto& [large, tool0, tool_rest, body_tool, body_large] = scene.objects;
     int kept = 0, rebuilt = 0;
     const int frames = 200;
     for (int frame = 0; frame < frames; ++frame) {
