@@ -258,11 +258,11 @@ struct Detector::KeptPairs {
   AabbTree tree;            ///< over B's padded boxes, when made
   std::vector<Index> near;  ///< scratch
   /// Each body's box centre at this object pair's last call, and how far it moved in each
-  /// of the last two calls: what a list made now is stretched along (steady_sweep()).
+  /// of the last two calls (none before there were two): what a list made now is
+  /// stretched along (steady_sweep()).
   std::array<Eigen::Vector3d, 2> centre{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   std::array<Eigen::Vector3d, 2> step{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   std::array<Eigen::Vector3d, 2> step_before{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  int centres_seen = 0;  ///< calls whose centres are recorded (counted up to 2)
 };
 
 namespace {
@@ -305,6 +305,10 @@ Eigen::Vector3d steady_sweep(const Eigen::Vector3d& step, const Eigen::Vector3d&
 }  // namespace
 
 Detector::KeptPairs* Detector::kept_of(const CollisionBody& a, const CollisionBody& b) {
+  const std::array<const CollisionBody*, 2> bodies = {&a, &b};
+  const auto centre_of = [&](std::size_t s) -> Eigen::Vector3d {
+    return 0.5 * (bodies[s]->box().lo + bodies[s]->box().hi);
+  };
   KeptPairs* k = nullptr;
   for (auto& e : kept_)
     if (e->a == &a && e->b == &b) k = e.get();
@@ -316,17 +320,15 @@ Detector::KeptPairs* Detector::kept_of(const CollisionBody& a, const CollisionBo
     k = kept_.back().get();
     k->a = &a;
     k->b = &b;
+    for (std::size_t s = 0; s < 2; ++s) k->centre[s] = centre_of(s);  // first call: no step
   }
   k->used = ++kept_calls_;
-  const std::array<const CollisionBody*, 2> bodies = {&a, &b};
   for (std::size_t s = 0; s < 2; ++s) {
-    const Eigen::Vector3d centre = 0.5 * (bodies[s]->box().lo + bodies[s]->box().hi);
+    const Eigen::Vector3d centre = centre_of(s);
     k->step_before[s] = k->step[s];
-    k->step[s] =
-        k->centres_seen > 0 ? Eigen::Vector3d(centre - k->centre[s]) : Eigen::Vector3d::Zero();
+    k->step[s] = centre - k->centre[s];
     k->centre[s] = centre;
   }
-  k->centres_seen = std::min(k->centres_seen + 1, 2);
   return k;
 }
 
@@ -397,10 +399,9 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
     // Steady motion of either body (two calls seen moving the same way): its boxes are
     // stretched along it, and the region by both (the overlap box of two translated
     // boxes lies within the overlap box stretched by the two translations).
-    std::array<Eigen::Vector3d, 2> sweep{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    if (k->centres_seen >= 2)
-      for (std::size_t s = 0; s < 2; ++s)
-        sweep[s] = steady_sweep(k->step[s], k->step_before[s], kKeptMaxSweep * mean_extent);
+    std::array<Eigen::Vector3d, 2> sweep;
+    for (std::size_t s = 0; s < 2; ++s)
+      sweep[s] = steady_sweep(k->step[s], k->step_before[s], kKeptMaxSweep * mean_extent);
     const Aabb region{cull.lo - pad + sweep[0].cwiseMin(sweep[1]).cwiseMin(0.0),
                       cull.hi + pad + sweep[0].cwiseMax(sweep[1]).cwiseMax(0.0)};
     for (std::size_t s = 0; s < 2; ++s) {
