@@ -1243,6 +1243,7 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> jitter(-2e-5, 2e-5);
     int kept = 0, rebuilt = 0;
+    std::size_t hinted = 0, kept_candidates = 0;
     for (int frame = 0; frame < 120; ++frame) {
       SCOPED_TRACE(frame);
       Positions pl = large.mesh.positions;
@@ -1264,9 +1265,17 @@ TEST(Detector, KeptPairsGiveTheTreesCandidatesOverSlowMotionAndJumps) {
       }
       kept += st_with.pairs_kept ? 1 : 0;
       rebuilt += st_with.pairs_rebuilt ? 1 : 0;
+      EXPECT_EQ(st_without.hinted, 0U);  // hints come with kept pairs only
+      if (st_with.pairs_kept) {
+        hinted += st_with.hinted;
+        kept_candidates += st_with.candidates;
+      }
     }
     EXPECT_GT(kept, 90) << kept;       // kept pairs served most frames
     EXPECT_GE(rebuilt, 5) << rebuilt;  // and were made again after each jump at least
+    // The overlap hints decided most of their candidates (the tool turns and sinks a little
+    // every frame, so some go stale), with the tree's answers throughout (above).
+    EXPECT_GT(hinted, kept_candidates / 2) << hinted << " of " << kept_candidates;
   }
 }
 
@@ -1316,6 +1325,7 @@ TEST(Detector, KeptPairsFollowSteadilyDraggedContact) {
     auto& [with, without] = scene.detectors;
     auto& [large, tool0, tool_rest, body_tool, body_large] = scene.objects;
     int kept = 0, rebuilt = 0;
+    std::size_t hinted = 0, candidates = 0;
     const int frames = 200;
     for (int frame = 0; frame < frames; ++frame) {
       SCOPED_TRACE(frame);
@@ -1330,8 +1340,13 @@ TEST(Detector, KeptPairsFollowSteadilyDraggedContact) {
                             tool_is_a ? body_large : body_tool, st, st_without);
       kept += st.pairs_kept ? 1 : 0;
       rebuilt += st.pairs_rebuilt ? 1 : 0;
+      hinted += st.hinted;
+      candidates += st.candidates;
     }
     EXPECT_GT(kept, frames * 3 / 4) << kept << " frames served, lists made " << rebuilt;
+    // Overlap hints decide most candidates even so (63% here: a hint goes stale when its
+    // pair's gap or depth changes by more than the tolerance).
+    EXPECT_GT(hinted, candidates / 2) << hinted << " of " << candidates;
   }
 }
 

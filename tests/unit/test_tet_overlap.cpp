@@ -546,6 +546,7 @@ class VectorisedOverlap : public ::testing::Test {
               << " baseline " << baseline;
           if (!baseline) overlapping_ += want ? 1 : 0;
         }
+        if (!baseline) check_hints(ga, gb, s);
         // The narrow phase's batch: tolerance relative to each pair's scale, as detection.
         const std::array<GeometryPair, 2> pairs = {GeometryPair{&ga, &gb}, GeometryPair{&gb, &ga}};
         std::array<bool, 2> hits = {!tets_overlap_reference(ga, gb, kTol * s),
@@ -599,6 +600,32 @@ class VectorisedOverlap : public ::testing::Test {
   }
 
   std::deque<TetGeometry> batch_;  ///< pairs of tets, in the order check() saw them
+  int hints_found_ = 0, hint_answers_ = 0;
+
+  /// Overlap hints on (a, b) and (b, a), pair scale s: whatever hint holds answers as the
+  /// reference (every code tried, at the detection tolerance and a large one), and a hint
+  /// found for a pair holds on it. Tolerances below 10^-12 of the scale get none.
+  void check_hints(const TetGeometry& a, const TetGeometry& b, double s) {
+    for (const auto& [x, y] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
+      for (const double tol : {kTol * s, 1e-3 * s}) {
+        const bool want = tets_overlap_reference(*x, *y, tol);
+        for (int code = 0; code < 256; ++code) {
+          const int r = check_overlap_hint(*x, *y, tol, static_cast<OverlapHint>(code));
+          if (r < 0) continue;
+          ASSERT_EQ(r == 1, want) << "check " << checked_ << " hint " << code << " tol " << tol;
+          ++hint_answers_;
+        }
+        const OverlapHint h = find_overlap_hint(*x, *y, tol, want);
+        if (h != kOverlapHintNone) {
+          ASSERT_EQ(check_overlap_hint(*x, *y, tol, h), want ? 1 : 0)
+              << "check " << checked_ << " found hint " << int{h};
+          ++hints_found_;
+        }
+      }
+      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13 * s, true), kOverlapHintNone);
+      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13 * s, false), kOverlapHintNone);
+    }
+  }
 
   /// B moved along d to the reference's overlap boundary (bisection), then checked at and
   /// around it: the pairs where a different rounding would flip the answer.
@@ -664,6 +691,8 @@ TEST_F(VectorisedOverlap, RandomPairsOfEveryKindAgreeBitForBit) {
   }
   EXPECT_GT(checked_, 10000);
   EXPECT_GT(overlapping_, 20000);
+  EXPECT_GT(hints_found_, 20000);
+  EXPECT_GT(hint_answers_, 100000);
   check_batch();
 }
 

@@ -242,6 +242,9 @@ struct Detector::KeptPairs {
   /// The pairs, each as (A's entry, B's entry) rather than tets (one list made in place),
   /// sorted: the entries follow tet order, so these follow (tet_a, tet_b).
   std::vector<TetPair> pairs;
+  /// Per pair, the certificate of its last full overlap test (kOverlapHintUnknown when the
+  /// list is made): the narrow phase checks it first (docs/DETECTION.md, "Overlap hints").
+  std::vector<OverlapHint> hints;
   /// This call's box of each entry (empty when the broad phase did not keep its tet).
   std::array<std::vector<Aabb>, 2> now;
   /// The margin as a fraction of the mean box extent of the tets near the contact:
@@ -430,6 +433,7 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
     for (TetPair& p : k->pairs)
       p = {k->slot[0][static_cast<std::size_t>(p.tet_a)],
            k->slot[1][static_cast<std::size_t>(p.tet_b)]};
+    k->hints.assign(k->pairs.size(), kOverlapHintUnknown);
     k->served = 0;
     st.pairs_rebuilt = true;
     if (!covers()) {  // (rounding beyond the margin: not expected)
@@ -442,20 +446,27 @@ bool Detector::candidates_from_kept(KeptPairs* k, CollisionBody& a, CollisionBod
   const std::vector<TetPair>& pairs = k->pairs;
   const std::size_t chunks = detail::num_chunks(pairs.size(), kKeptChunk);
   detail::reset_parts(pair_parts_, chunks);
+  detail::reset_parts(entry_parts_, chunks);
   detail::for_chunks(
       pairs.size(), kKeptChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
         std::vector<TetPair>& part = pair_parts_[c];
+        std::vector<Index>& entries = entry_parts_[c];
         part.resize(end - begin);
+        entries.resize(end - begin);
         std::size_t kept = 0;
         for (std::size_t i = begin; i < end; ++i) {
           const auto ia = static_cast<std::size_t>(pairs[i].tet_a);  // entries (above)
           const auto ib = static_cast<std::size_t>(pairs[i].tet_b);
           part[kept] = {k->tets[0][ia], k->tets[1][ib]};
+          entries[kept] = static_cast<Index>(i);
           kept += k->now[0][ia].overlaps(k->now[1][ib]) ? 1 : 0;
         }
         part.resize(kept);
+        entries.resize(kept);
       });
   detail::concat_parts(pair_parts_, chunks, candidates_);
+  detail::concat_parts(entry_parts_, chunks, candidate_entries_);
+  hints_ = &k->hints;
   ++k->served;
   st.pairs_kept = true;
   return true;
@@ -473,6 +484,8 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   out.edges_a_in_b.clear();
   out.edges_b_in_a.clear();
   candidates_.clear();
+  candidate_entries_.clear();
+  hints_ = nullptr;
   if (a.positions_ == nullptr || b.positions_ == nullptr)
     throw std::logic_error("Detector::detect: set_positions() was not called");
 
@@ -490,6 +503,7 @@ void Detector::detect(CollisionBody& a, CollisionBody& b, PairContacts& out, Det
   index_candidate_tets(a, b);
   narrow_phase(a, b, out);
   st.overlapping = out.overlapping.size();
+  for (const std::size_t n : hinted_parts_) st.hinted += n;
   mark_tets(out);
 
   const auto intrusion_start = Clock::now();
@@ -590,6 +604,9 @@ void Detector::drop_left_out(const CollisionBody& a, const CollisionBody& b) {
     std::erase_if(candidates_, [&](const TetPair& p) {
       return out_of(a.left_out_, p.tet_a) || out_of(b.left_out_, p.tet_b);
     });
+    // (The hints follow the candidates they were made for: none this call.)
+    candidate_entries_.clear();
+    hints_ = nullptr;
   }
 }
 
@@ -616,10 +633,65 @@ void Detector::index_candidate_tets(const CollisionBody& a, const CollisionBody&
   }
 }
 
+namespace {
+
+/// The narrow phase of n <= kNarrowChunk candidates with kept pairs' hints: hits[i] for
+/// candidates[i], entries[i] its entry in `hints`. The pairs whose hint holds are decided by
+/// it; the others get the full test (their geometry gathered in `pairs`), then a hint made
+/// again from its answer. Returns how many the hints decided.
+template <typename GeometryOfPair>
+std::size_t test_with_hints(std::span<const TetPair> candidates, std::span<const Index> entries,
+                            std::vector<OverlapHint>& hints, double rel,
+                            const GeometryOfPair& geometry_of,
+                            std::array<GeometryPair, kNarrowChunk>& pairs,
+                            std::array<bool, kNarrowChunk>& hits) {
+  const std::size_t n = candidates.size();
+  std::array<std::uint16_t, kNarrowChunk> open;
+  std::size_t num_open = 0, decided = 0;
+  // How many pairs ahead B's geometry is asked for (B's tets come scattered): its box, the
+  // face normals and the corners, what a hint reads.
+  constexpr std::size_t kAhead = 4;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i + kAhead < n) {
+      const char* next = reinterpret_cast<const char*>(geometry_of(candidates[i + kAhead]).b);
+      for (std::size_t off = 0; off < 384; off += 64) __builtin_prefetch(next + off);
+    }
+    const GeometryPair g = geometry_of(candidates[i]);
+    const OverlapHint h = hints[static_cast<std::size_t>(entries[i])];
+    const int answer = h == kOverlapHintUnknown || h == kOverlapHintNone
+                           ? -1
+                           : check_overlap_hint(*g.a, *g.b, rel * pair_scale(*g.a, *g.b), h);
+    if (answer >= 0) {
+      hits[i] = answer == 1;
+      ++decided;
+    } else {
+      pairs[num_open] = g;
+      open[num_open++] = static_cast<std::uint16_t>(i);
+    }
+  }
+  std::array<bool, kNarrowChunk> open_hits;
+  tets_overlap_pairs({pairs.data(), num_open}, rel, {open_hits.data(), num_open});
+  for (std::size_t j = 0; j < num_open; ++j) {
+    const std::size_t i = open[j];
+    hits[i] = open_hits[j];
+    OverlapHint& h = hints[static_cast<std::size_t>(entries[i])];
+    // A pair without a hint is not looked at again until the list is made again (it lies
+    // within the margins, and would be every frame).
+    if (h != kOverlapHintNone) {
+      const GeometryPair& g = pairs[j];
+      h = find_overlap_hint(*g.a, *g.b, rel * pair_scale(*g.a, *g.b), open_hits[j]);
+    }
+  }
+  return decided;
+}
+
+}  // namespace
+
 void Detector::narrow_phase(const CollisionBody& a, const CollisionBody& b, PairContacts& out) {
   const double rel = relative_tolerance();
   const std::size_t chunks = detail::num_chunks(candidates_.size(), kNarrowChunk);
   detail::reset_parts(pair_parts_, chunks);
+  hinted_parts_.assign(chunks, 0);
   detail::for_chunks(
       candidates_.size(), kNarrowChunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
         // This thread's geometry of the chunk's tets, built now where it has not yet
@@ -646,12 +718,19 @@ void Detector::narrow_phase(const CollisionBody& a, const CollisionBody& b, Pair
         std::array<GeometryPair, kNarrowChunk> pairs;
         std::array<bool, kNarrowChunk> hits;
         const std::size_t n = end - begin;
-        for (std::size_t i = 0; i < n; ++i) {
-          const TetPair& p = candidates_[begin + i];
-          pairs[i] = {&copy.geom[0][static_cast<std::size_t>(geom_a_.slot[p.tet_a])],
-                      &copy.geom[1][static_cast<std::size_t>(geom_b_.slot[p.tet_b])]};
+        const auto geometry_of = [&](const TetPair& p) -> GeometryPair {
+          return {&copy.geom[0][static_cast<std::size_t>(geom_a_.slot[p.tet_a])],
+                  &copy.geom[1][static_cast<std::size_t>(geom_b_.slot[p.tet_b])]};
+        };
+        if (hints_ == nullptr) {
+          for (std::size_t i = 0; i < n; ++i) pairs[i] = geometry_of(candidates_[begin + i]);
+          tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
+        } else {
+          hinted_parts_[c] =
+              test_with_hints(std::span<const TetPair>(candidates_).subspan(begin, n),
+                              std::span<const Index>(candidate_entries_).subspan(begin, n), *hints_,
+                              rel, geometry_of, pairs, hits);
         }
-        tets_overlap_pairs({pairs.data(), n}, rel, {hits.data(), n});
         // The overlapping ones kept in order, without a branch on each (about half of
         // the candidates overlap, in no pattern a branch predictor could learn).
         std::vector<TetPair>& part = pair_parts_[c];

@@ -77,6 +77,9 @@ struct DetectStats {
   bool pairs_kept = false;
   /// The kept pairs of this object pair were made again in this call.
   bool pairs_rebuilt = false;
+  /// Candidates whose overlap the kept pairs' hints decided (check_overlap_hint()), without
+  /// the full test; included in candidates.
+  std::size_t hinted = 0;
 };
 
 /// One object as detection sees it: its topology-derived tables (built once, in the
@@ -403,6 +406,13 @@ class Detector {
   int local_tree_refits_ = 0;
   std::vector<TetPair> candidates_;
   detail::ChunkBuffers<TetPair> pair_parts_;
+  /// When the candidates came from kept pairs: each one's entry in the kept pairs, and
+  /// their overlap hints (KeptPairs::hints), which the narrow phase checks and renews;
+  /// else empty and null.
+  std::vector<Index> candidate_entries_;
+  detail::ChunkBuffers<Index> entry_parts_;
+  std::vector<OverlapHint>* hints_ = nullptr;
+  std::vector<std::size_t> hinted_parts_;  ///< per narrow-phase chunk: pairs the hints decided
   std::vector<std::unique_ptr<KeptPairs>> kept_;  ///< per object pair (KeptPairs::used: last use)
   std::uint64_t kept_calls_ = 0;                  ///< kept_of() calls
   Geometry geom_a_, geom_b_;

@@ -550,6 +550,110 @@ bool tets_overlap_reference(const TetGeometry& a, const TetGeometry& b, double t
   return sat.run();
 }
 
+namespace {
+
+// Overlap hints (check_overlap_hint(), find_overlap_hint()). Every figure is in coordinates
+// relative to the first tet's first corner, as Sat's.
+/// The margins of the hints are the tolerance: below this fraction of the pair's scale it
+/// would no longer dwarf rounding (detection's is 10^-9).
+constexpr double kHintMinTolerance = 1e-12;
+constexpr int kHintFaceA = 1, kHintFaceB = 5, kHintEdge = 9, kHintDeepB = 45, kHintDeepA = 49,
+              kHintEnd = 53;
+
+/// True when face k of tet g (whose corners span [min(plane, apex), max(plane, apex)] along
+/// its normal, relative to its first corner) and the points q (relative to the same corner)
+/// lie more than `tolerance` apart along that normal.
+bool face_apart(const TetGeometry& g, int k, const std::array<Vector3d, 4>& q, double tolerance) {
+  const auto f = static_cast<std::size_t>(k);
+  const Vector3d n = g.normal(k);
+  double lo = kInf, hi = -kInf;
+  for (const Vector3d& x : q) {
+    const double u = dot3(n, x);
+    lo = std::min(lo, u), hi = std::max(hi, u);
+  }
+  const double c = g.plane[f], opp = g.apex[f];
+  return std::min(std::max(c, opp) - lo, hi - std::min(c, opp)) < -tolerance * g.n_len[f];
+}
+
+/// True when the corners pa and pb of two tets (relative to one origin) lie more than
+/// `tolerance` apart along axis n.
+bool apart_along(const Vector3d& n, const std::array<Vector3d, 4>& pa,
+                 const std::array<Vector3d, 4>& pb, double tolerance) {
+  const double nn = dot3(n, n);
+  if (!(nn > 0.0) || !std::isfinite(nn)) return false;
+  double alo = kInf, ahi = -kInf, blo = kInf, bhi = -kInf;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double u = dot3(n, pa[i]), w = dot3(n, pb[i]);
+    alo = std::min(alo, u), ahi = std::max(ahi, u);
+    blo = std::min(blo, w), bhi = std::max(bhi, w);
+  }
+  return std::min(ahi - blo, bhi - alo) < -tolerance * std::sqrt(nn);
+}
+
+/// True when point q (relative to g's first corner) lies deeper than `depth` inside tet g
+/// (outward normals: below every face plane by more than depth |n|).
+bool deep_inside(const TetGeometry& g, const Vector3d& q, double depth) {
+  bool deep = true;
+  for (int k = 0; k < 4; ++k) {
+    const auto f = static_cast<std::size_t>(k);
+    deep = deep && dot3(g.normal(k), q) < g.plane[f] - depth * g.n_len[f];
+  }
+  return deep;
+}
+
+/// The corners of `g` relative to `origin`.
+std::array<Vector3d, 4> corners_from(const TetGeometry& g, const Vector3d& origin) {
+  return {g.v[0] - origin, g.v[1] - origin, g.v[2] - origin, g.v[3] - origin};
+}
+
+/// Whether hint h (kHintFaceA <= h < kHintEnd) holds for tets a and b.
+bool hint_holds(const TetGeometry& a, const TetGeometry& b, double tolerance, int h) {
+  if (h < kHintFaceB) return face_apart(a, h - kHintFaceA, corners_from(b, a.v[0]), tolerance);
+  if (h < kHintEdge) return face_apart(b, h - kHintFaceB, corners_from(a, b.v[0]), tolerance);
+  if (h < kHintDeepB) {
+    const int i = (h - kHintEdge) / 6, j = (h - kHintEdge) % 6;
+    return apart_along(cross3(a.edge(i), b.edge(j)), corners_from(a, a.v[0]),
+                       corners_from(b, a.v[0]), tolerance);
+  }
+  if (h < kHintDeepA)
+    return deep_inside(a, b.v[static_cast<std::size_t>(h - kHintDeepB)] - a.v[0], 2.0 * tolerance);
+  return deep_inside(b, a.v[static_cast<std::size_t>(h - kHintDeepA)] - b.v[0], 2.0 * tolerance);
+}
+
+}  // namespace
+
+int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+                       OverlapHint hint) {
+  const int h = hint;
+  if (h < kHintFaceA || h >= kHintEnd || a.flat || b.flat) return -1;
+  if (!(tolerance >= kHintMinTolerance * pair_scale(a, b))) return -1;
+  if (!hint_holds(a, b, tolerance, h)) return -1;
+  return h >= kHintDeepB ? 1 : 0;
+}
+
+OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+                              bool overlap) {
+  if (a.flat || b.flat) return kOverlapHintNone;
+  if (!(tolerance >= kHintMinTolerance * pair_scale(a, b))) return kOverlapHintNone;
+  if (overlap) {
+    for (int h = kHintDeepB; h < kHintEnd; ++h)
+      if (hint_holds(a, b, tolerance, h)) return static_cast<OverlapHint>(h);
+    return kOverlapHintNone;
+  }
+  const auto pb = corners_from(b, a.v[0]);
+  for (int k = 0; k < 4; ++k)
+    if (face_apart(a, k, pb, tolerance)) return static_cast<OverlapHint>(kHintFaceA + k);
+  const auto qa = corners_from(a, b.v[0]);
+  for (int k = 0; k < 4; ++k)
+    if (face_apart(b, k, qa, tolerance)) return static_cast<OverlapHint>(kHintFaceB + k);
+  const auto pa = corners_from(a, a.v[0]);
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      if (apart_along(cross3(a.edge(i), b.edge(j)), pa, pb, tolerance))
+        return static_cast<OverlapHint>(kHintEdge + 6 * i + j);
+  return kOverlapHintNone;
+}
+
 // One copy for AVX2 and one for the x86-64 baseline (use_avx2_kernels()); both give the
 // same bits (the same IEEE operations per lane, no FMA: "avx2" does not enable it).
 bool tets_overlap(const TetGeometry& a, const TetGeometry& b, double tolerance) {

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <span>
 
 #include "core/mesh/tet_mesh.hpp"
@@ -123,6 +124,36 @@ struct GeometryPair {
 /// they find, then the edge axes, 4 at a time, of the pairs those left open.
 void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tolerance,
                         std::span<bool> out);
+
+/// A certificate of tets_overlap()'s answer for a pair of tets, found when the pair is
+/// tested in full and checked again on the pair's geometry of a later frame for a fraction
+/// of the test (docs/DETECTION.md, "Overlap hints"). Codes: 1 + k, face k of the first tet
+/// is an axis along which the tets lie more than the tolerance apart; 5 + k, face k of the
+/// second; 9 + 6 i + j, edge i of the first x edge j of the second; 45 + i, corner i of the
+/// second tet lies deeper than twice the tolerance inside the first; 49 + i, corner i of
+/// the first inside the second.
+using OverlapHint = std::uint8_t;
+/// Not looked for yet.
+inline constexpr OverlapHint kOverlapHintUnknown = 0;
+/// Looked for and none found (the pair lies within the margins): test in full.
+inline constexpr OverlapHint kOverlapHintNone = 255;
+
+/// What hint `hint` says about tets a and b now: 1 (overlap) or 0 (apart), either of which
+/// is tets_overlap(a, b, tolerance)'s answer; -1 when the hint no longer holds (or is none,
+/// or a tet is flat): test in full. Exact by margin: an axis must show a gap of more than
+/// `tolerance` (tets_overlap() separates at a gap above minus the tolerance), a corner a
+/// depth of more than twice it (it accepts above once), so rounding, some 10^-15 of the
+/// scale where the tolerance is 10^-9 of it, cannot make the two disagree (a tolerance
+/// below 10^-12 of the pair's scale gets -1).
+int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+                       OverlapHint hint);
+
+/// A hint for tets a and b, which tets_overlap(a, b, tolerance) answered `overlap`: for an
+/// overlap a deep corner; for tets apart a face axis, else an edge axis, with the margin
+/// check_overlap_hint() asks for; kOverlapHintNone when there is none (or a tet is flat,
+/// or the tolerance is below 10^-12 of the pair's scale).
+OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+                              bool overlap);
 
 /// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
 /// order documented there); kept for flat tets and as the reference in tests.
