@@ -600,7 +600,7 @@ class VectorisedOverlap : public ::testing::Test {
   }
 
   std::deque<TetGeometry> batch_;  ///< pairs of tets, in the order check() saw them
-  int hints_found_ = 0, hint_answers_ = 0;
+  int hints_found_ = 0, hint_answers_ = 0, grid_answers_ = 0;
 
   /// Overlap hints on (a, b) and (b, a), pair scale s: whatever hint holds answers as the
   /// reference (every code tried, at the detection tolerance and a large one), and a hint
@@ -614,6 +614,7 @@ class VectorisedOverlap : public ::testing::Test {
           if (r < 0) continue;
           ASSERT_EQ(r == 1, want) << "check " << checked_ << " hint " << code << " tol " << tol;
           ++hint_answers_;
+          grid_answers_ += code >= 53 ? 1 : 0;  // a grid point (not a corner) deep inside
         }
         const OverlapHint h = find_overlap_hint(*x, *y, tol, want);
         if (h != kOverlapHintNone) {
@@ -691,8 +692,9 @@ TEST_F(VectorisedOverlap, RandomPairsOfEveryKindAgreeBitForBit) {
   }
   EXPECT_GT(checked_, 10000);
   EXPECT_GT(overlapping_, 20000);
-  EXPECT_GT(hints_found_, 20000);
+  EXPECT_GT(hints_found_, 40000);
   EXPECT_GT(hint_answers_, 100000);
+  EXPECT_GT(grid_answers_, 100000);
   check_batch();
 }
 

@@ -557,8 +557,26 @@ namespace {
 /// The margins of the hints are the tolerance: below this fraction of the pair's scale it
 /// would no longer dwarf rounding (detection's is 10^-9).
 constexpr double kHintMinTolerance = 1e-12;
+/// Points of a tet other than its corners, as barycentric weights in quarters: the points
+/// of the grid of step 1/4 over the tet (edge, face and inner points), the overlap
+/// certificates of pairs where no corner of either tet lies deep in the other.
+constexpr std::array<std::array<int, 4>, 31> kGridPoints = [] {
+  std::array<std::array<int, 4>, 31> points{};
+  std::size_t n = 0;
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; i + j <= 4; ++j)
+      for (int k = 0; i + j + k <= 4; ++k) {
+        const int l = 4 - i - j - k;
+        if (i == 4 || j == 4 || k == 4 || l == 4) continue;  // a corner
+        points[n++] = {i, j, k, l};
+      }
+  return points;
+}();
+constexpr int kGridCount = static_cast<int>(kGridPoints.size());
 constexpr int kHintFaceA = 1, kHintFaceB = 5, kHintEdge = 9, kHintDeepB = 45, kHintDeepA = 49,
-              kHintEnd = 53;
+              kHintGridB = 53, kHintGridA = kHintGridB + kGridCount,
+              kHintEnd = kHintGridA + kGridCount;
+static_assert(kHintEnd < 255, "hint codes fit a byte below kOverlapHintNone");
 
 /// True when face k of tet g (whose corners span [min(plane, apex), max(plane, apex)] along
 /// its normal, relative to its first corner) and the points q (relative to the same corner)
@@ -606,6 +624,12 @@ std::array<Vector3d, 4> corners_from(const TetGeometry& g, const Vector3d& origi
   return {g.v[0] - origin, g.v[1] - origin, g.v[2] - origin, g.v[3] - origin};
 }
 
+/// Grid point g (kGridPoints) of the tet with corners c.
+Vector3d grid_point(const std::array<Vector3d, 4>& c, int g) {
+  const auto& w = kGridPoints[static_cast<std::size_t>(g)];
+  return 0.25 * (w[0] * c[0] + w[1] * c[1] + w[2] * c[2] + w[3] * c[3]);
+}
+
 /// Whether hint h (kHintFaceA <= h < kHintEnd) holds for tets a and b.
 bool hint_holds(const TetGeometry& a, const TetGeometry& b, double tolerance, int h) {
   if (h < kHintFaceB) return face_apart(a, h - kHintFaceA, corners_from(b, a.v[0]), tolerance);
@@ -617,7 +641,11 @@ bool hint_holds(const TetGeometry& a, const TetGeometry& b, double tolerance, in
   }
   if (h < kHintDeepA)
     return deep_inside(a, b.v[static_cast<std::size_t>(h - kHintDeepB)] - a.v[0], 2.0 * tolerance);
-  return deep_inside(b, a.v[static_cast<std::size_t>(h - kHintDeepA)] - b.v[0], 2.0 * tolerance);
+  if (h < kHintGridB)
+    return deep_inside(b, a.v[static_cast<std::size_t>(h - kHintDeepA)] - b.v[0], 2.0 * tolerance);
+  if (h < kHintGridA)
+    return deep_inside(a, grid_point(corners_from(b, a.v[0]), h - kHintGridB), 2.0 * tolerance);
+  return deep_inside(b, grid_point(corners_from(a, b.v[0]), h - kHintGridA), 2.0 * tolerance);
 }
 
 }  // namespace
@@ -636,8 +664,15 @@ OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double
   if (a.flat || b.flat) return kOverlapHintNone;
   if (!(tolerance >= kHintMinTolerance * pair_scale(a, b))) return kOverlapHintNone;
   if (overlap) {
-    for (int h = kHintDeepB; h < kHintEnd; ++h)
+    for (int h = kHintDeepB; h < kHintGridB; ++h)
       if (hint_holds(a, b, tolerance, h)) return static_cast<OverlapHint>(h);
+    const auto pb = corners_from(b, a.v[0]), qa = corners_from(a, b.v[0]);
+    for (int g = 0; g < kGridCount; ++g) {
+      if (deep_inside(a, grid_point(pb, g), 2.0 * tolerance))
+        return static_cast<OverlapHint>(kHintGridB + g);
+      if (deep_inside(b, grid_point(qa, g), 2.0 * tolerance))
+        return static_cast<OverlapHint>(kHintGridA + g);
+    }
     return kOverlapHintNone;
   }
   const auto pb = corners_from(b, a.v[0]);

@@ -131,7 +131,8 @@ void tets_overlap_pairs(std::span<const GeometryPair> pairs, double relative_tol
 /// is an axis along which the tets lie more than the tolerance apart; 5 + k, face k of the
 /// second; 9 + 6 i + j, edge i of the first x edge j of the second; 45 + i, corner i of the
 /// second tet lies deeper than twice the tolerance inside the first; 49 + i, corner i of
-/// the first inside the second.
+/// the first inside the second; 53 + g and 84 + g, point g of the second's (the first's)
+/// grid of step 1/4 in barycentric weights, corners left out, inside the other likewise.
 using OverlapHint = std::uint8_t;
 /// Not looked for yet.
 inline constexpr OverlapHint kOverlapHintUnknown = 0;
@@ -149,9 +150,9 @@ int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolera
                        OverlapHint hint);
 
 /// A hint for tets a and b, which tets_overlap(a, b, tolerance) answered `overlap`: for an
-/// overlap a deep corner; for tets apart a face axis, else an edge axis, with the margin
-/// check_overlap_hint() asks for; kOverlapHintNone when there is none (or a tet is flat,
-/// or the tolerance is below 10^-12 of the pair's scale).
+/// overlap a deep corner, else a deep grid point; for tets apart a face axis, else an edge
+/// axis, with the margin check_overlap_hint() asks for; kOverlapHintNone when there is none
+/// (or a tet is flat, or the tolerance is below 10^-12 of the pair's scale).
 OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
                               bool overlap);
 
