@@ -604,27 +604,27 @@ class VectorisedOverlap : public ::testing::Test {
 
   /// Overlap hints on (a, b) and (b, a), pair scale s: whatever hint holds answers as the
   /// reference (every code tried, at the detection tolerance and a large one), and a hint
-  /// found for a pair holds on it. Tolerances below 10^-12 of the scale get none.
+  /// found for a pair holds on it. Relative tolerances below 10^-12 get none.
   void check_hints(const TetGeometry& a, const TetGeometry& b, double s) {
     for (const auto& [x, y] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
-      for (const double tol : {kTol * s, 1e-3 * s}) {
-        const bool want = tets_overlap_reference(*x, *y, tol);
+      for (const double rel : {kTol, 1e-3}) {
+        const bool want = tets_overlap_reference(*x, *y, rel * s);
         for (int code = 0; code < 256; ++code) {
-          const int r = check_overlap_hint(*x, *y, tol, static_cast<OverlapHint>(code));
+          const int r = check_overlap_hint(*x, *y, rel, static_cast<OverlapHint>(code));
           if (r < 0) continue;
-          ASSERT_EQ(r == 1, want) << "check " << checked_ << " hint " << code << " tol " << tol;
+          ASSERT_EQ(r == 1, want) << "check " << checked_ << " hint " << code << " rel " << rel;
           ++hint_answers_;
           grid_answers_ += code >= 53 ? 1 : 0;  // a grid point (not a corner) deep inside
         }
-        const OverlapHint h = find_overlap_hint(*x, *y, tol, want);
+        const OverlapHint h = find_overlap_hint(*x, *y, rel, want);
         if (h != kOverlapHintNone) {
-          ASSERT_EQ(check_overlap_hint(*x, *y, tol, h), want ? 1 : 0)
+          ASSERT_EQ(check_overlap_hint(*x, *y, rel, h), want ? 1 : 0)
               << "check " << checked_ << " found hint " << int{h};
           ++hints_found_;
         }
       }
-      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13 * s, true), kOverlapHintNone);
-      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13 * s, false), kOverlapHintNone);
+      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13, true), kOverlapHintNone);
+      EXPECT_EQ(find_overlap_hint(*x, *y, 1e-13, false), kOverlapHintNone);
     }
   }
 

@@ -660,7 +660,7 @@ std::size_t test_with_hints(std::span<const TetPair> candidates, std::span<const
     const OverlapHint h = hints[static_cast<std::size_t>(entries[i])];
     const int answer = h == kOverlapHintUnknown || h == kOverlapHintNone
                            ? -1
-                           : check_overlap_hint(*g.a, *g.b, rel * pair_scale(*g.a, *g.b), h);
+                           : check_overlap_hint(*g.a, *g.b, rel, h);
     if (answer >= 0) {
       hits[i] = answer == 1;
       ++decided;
@@ -679,7 +679,7 @@ std::size_t test_with_hints(std::span<const TetPair> candidates, std::span<const
     // within the margins, and would be every frame).
     if (h != kOverlapHintNone) {
       const GeometryPair& g = pairs[j];
-      h = find_overlap_hint(*g.a, *g.b, rel * pair_scale(*g.a, *g.b), open_hits[j]);
+      h = find_overlap_hint(*g.a, *g.b, rel, open_hits[j]);
     }
   }
   return decided;

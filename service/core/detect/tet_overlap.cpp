@@ -50,7 +50,9 @@ using detail::any_perpendicular;
 using detail::cross3;
 using detail::dot3;
 
-inline void project(const Vector3d (&v)[4], const Vector3d& n, double& lo, double& hi) {
+/// The extent of 4 points (an array of Vector3d, C or std::) along n.
+template <typename Corners>
+inline void project(const Corners& v, const Vector3d& n, double& lo, double& hi) {
   const double p0 = dot3(n, v[0]), p1 = dot3(n, v[1]), p2 = dot3(n, v[2]), p3 = dot3(n, v[3]);
   lo = std::min(std::min(p0, p1), std::min(p2, p3));
   hi = std::max(std::max(p0, p1), std::max(p2, p3));
@@ -554,9 +556,9 @@ namespace {
 
 // Overlap hints (check_overlap_hint(), find_overlap_hint()). Every figure is in coordinates
 // relative to the first tet's first corner, as Sat's.
-/// The margins of the hints are the tolerance: below this fraction of the pair's scale it
-/// would no longer dwarf rounding (detection's is 10^-9).
-constexpr double kHintMinTolerance = 1e-12;
+/// The margins of the hints are the tolerance: below this fraction of the pair's scale (the
+/// relative tolerance) it would no longer dwarf rounding (detection's is 10^-9).
+constexpr double kHintMinRelativeTolerance = 1e-12;
 /// Points of a tet other than its corners, as barycentric weights in quarters: the points
 /// of the grid of step 1/4 over the tet (edge, face and inner points), the overlap
 /// certificates of pairs where no corner of either tet lies deep in the other.
@@ -583,12 +585,8 @@ static_assert(kHintEnd < 255, "hint codes fit a byte below kOverlapHintNone");
 /// lie more than `tolerance` apart along that normal.
 bool face_apart(const TetGeometry& g, int k, const std::array<Vector3d, 4>& q, double tolerance) {
   const auto f = static_cast<std::size_t>(k);
-  const Vector3d n = g.normal(k);
-  double lo = kInf, hi = -kInf;
-  for (const Vector3d& x : q) {
-    const double u = dot3(n, x);
-    lo = std::min(lo, u), hi = std::max(hi, u);
-  }
+  double lo, hi;
+  project(q, g.normal(k), lo, hi);
   const double c = g.plane[f], opp = g.apex[f];
   return std::min(std::max(c, opp) - lo, hi - std::min(c, opp)) < -tolerance * g.n_len[f];
 }
@@ -599,12 +597,9 @@ bool apart_along(const Vector3d& n, const std::array<Vector3d, 4>& pa,
                  const std::array<Vector3d, 4>& pb, double tolerance) {
   const double nn = dot3(n, n);
   if (!(nn > 0.0) || !std::isfinite(nn)) return false;
-  double alo = kInf, ahi = -kInf, blo = kInf, bhi = -kInf;
-  for (std::size_t i = 0; i < 4; ++i) {
-    const double u = dot3(n, pa[i]), w = dot3(n, pb[i]);
-    alo = std::min(alo, u), ahi = std::max(ahi, u);
-    blo = std::min(blo, w), bhi = std::max(bhi, w);
-  }
+  double alo, ahi, blo, bhi;
+  project(pa, n, alo, ahi);
+  project(pb, n, blo, bhi);
   return std::min(ahi - blo, bhi - alo) < -tolerance * std::sqrt(nn);
 }
 
@@ -650,19 +645,20 @@ bool hint_holds(const TetGeometry& a, const TetGeometry& b, double tolerance, in
 
 }  // namespace
 
-int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double relative_tolerance,
                        OverlapHint hint) {
   const int h = hint;
   if (h < kHintFaceA || h >= kHintEnd || a.flat || b.flat) return -1;
-  if (!(tolerance >= kHintMinTolerance * pair_scale(a, b))) return -1;
-  if (!hint_holds(a, b, tolerance, h)) return -1;
+  if (!(relative_tolerance >= kHintMinRelativeTolerance)) return -1;
+  if (!hint_holds(a, b, relative_tolerance * pair_scale(a, b), h)) return -1;
   return h >= kHintDeepB ? 1 : 0;
 }
 
-OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double relative_tolerance,
                               bool overlap) {
-  if (a.flat || b.flat) return kOverlapHintNone;
-  if (!(tolerance >= kHintMinTolerance * pair_scale(a, b))) return kOverlapHintNone;
+  if (a.flat || b.flat || !(relative_tolerance >= kHintMinRelativeTolerance))
+    return kOverlapHintNone;
+  const double tolerance = relative_tolerance * pair_scale(a, b);
   if (overlap) {
     for (int h = kHintDeepB; h < kHintGridB; ++h)
       if (hint_holds(a, b, tolerance, h)) return static_cast<OverlapHint>(h);

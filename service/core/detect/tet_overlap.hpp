@@ -140,20 +140,22 @@ inline constexpr OverlapHint kOverlapHintUnknown = 0;
 inline constexpr OverlapHint kOverlapHintNone = 255;
 
 /// What hint `hint` says about tets a and b now: 1 (overlap) or 0 (apart), either of which
-/// is tets_overlap(a, b, tolerance)'s answer; -1 when the hint no longer holds (or is none,
+/// is tets_overlap(a, b, relative_tolerance * pair_scale(a, b))'s answer (the narrow
+/// phase's tolerance, tets_overlap_pairs()); -1 when the hint no longer holds (or is none,
 /// or a tet is flat): test in full. Exact by margin: an axis must show a gap of more than
-/// `tolerance` (tets_overlap() separates at a gap above minus the tolerance), a corner a
+/// the tolerance (tets_overlap() separates at a gap above minus the tolerance), a point a
 /// depth of more than twice it (it accepts above once), so rounding, some 10^-15 of the
-/// scale where the tolerance is 10^-9 of it, cannot make the two disagree (a tolerance
-/// below 10^-12 of the pair's scale gets -1).
-int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+/// scale where the tolerance is 10^-9 of it, cannot make the two disagree (a relative
+/// tolerance below 10^-12 gets -1).
+int check_overlap_hint(const TetGeometry& a, const TetGeometry& b, double relative_tolerance,
                        OverlapHint hint);
 
-/// A hint for tets a and b, which tets_overlap(a, b, tolerance) answered `overlap`: for an
-/// overlap a deep corner, else a deep grid point; for tets apart a face axis, else an edge
-/// axis, with the margin check_overlap_hint() asks for; kOverlapHintNone when there is none
-/// (or a tet is flat, or the tolerance is below 10^-12 of the pair's scale).
-OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double tolerance,
+/// A hint for tets a and b, which tets_overlap() answered `overlap` at the tolerance
+/// relative_tolerance * pair_scale(a, b): for an overlap a deep corner, else a deep grid
+/// point; for tets apart a face axis, else an edge axis, with the margin
+/// check_overlap_hint() asks for; kOverlapHintNone when there is none (or a tet is flat, or
+/// the relative tolerance is below 10^-12).
+OverlapHint find_overlap_hint(const TetGeometry& a, const TetGeometry& b, double relative_tolerance,
                               bool overlap);
 
 /// The scalar separating-axis walk tets_overlap() reproduces (one axis at a time, in the
